@@ -1,0 +1,66 @@
+"""``python -m latent_planner_ros <command>`` (also the ``latent-planner`` console script).
+
+Commands:
+    run <node> [args...]       start one node (ROS arguments pass through)
+    launch [args...]           start the node suite as processes
+    train <model> [args...]    train a model (vae, ...)
+    bench <suite> --out DIR    run a benchmark; writes DIR/<suite>.json, a markdown report and PNGs
+    demo                       the main job of the README
+    info                       print a summary of the robot model
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from latent_planner_ros.registry import BENCH, NODES, TRAIN
+
+
+def _load(target: str):
+    module, func = target.split(":")
+    return getattr(importlib.import_module(module), func)
+
+
+def _dispatch(kind: str, table: dict[str, str], name: str, rest: list[str]) -> int:
+    if name not in table:
+        print(f"unknown {kind} {name!r}; choose one of: {', '.join(sorted(table))}", file=sys.stderr)
+        return 2
+    return int(_load(table[name])(rest) or 0)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = argparse.ArgumentParser(prog="latent-planner", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True)
+    for name, helptext, choices in (
+        ("run", "start one node", NODES),
+        ("train", "train a model", TRAIN),
+        ("bench", "run a benchmark suite", BENCH),
+    ):
+        p = sub.add_parser(name, help=helptext, add_help=False)
+        p.add_argument("target", choices=sorted(choices), metavar="{" + ",".join(sorted(choices)) + "}")
+    sub.add_parser("launch", help="start the node suite", add_help=False)
+    sub.add_parser("demo", help="run the main job")
+    sub.add_parser("info", help="print a summary of the robot model")
+    args, rest = parser.parse_known_args(argv)
+
+    if args.command == "run":
+        sys.argv = [args.target, *rest]
+        return int(_load(NODES[args.target])() or 0)
+    if args.command == "train":
+        return _dispatch("model", TRAIN, args.target, rest)
+    if args.command == "bench":
+        return _dispatch("bench suite", BENCH, args.target, rest)
+    if args.command == "launch":
+        return int(_load("latent_planner_ros.launcher:main")(rest) or 0)
+    if args.command == "demo":
+        return int(_load("latent_planner_ros.demo:main")(rest) or 0)
+    if args.command == "info":
+        from latent_planner_ros.robot.summary import robot_summary
+
+        print(robot_summary())
+        return 0
+    parser.error(f"unknown command {args.command}")
+    return 2

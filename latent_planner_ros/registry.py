@@ -1,0 +1,21 @@
+"""Names of the command-line entry points, as "module:function" strings.
+
+No imports here: setup.py reads this file to install the node executables.
+Node functions take no arguments (they read sys.argv, with ROS arguments); train and bench
+functions take an argv list and return an exit code.
+"""
+
+NODES = {
+    "robot_info": "latent_planner_ros.nodes.robot_info:main",
+    "sim": "sim_bridge.node:main",
+}
+
+TRAIN = {
+    "vae": "latent_planner_ros.training.train_vae:main",
+}
+
+BENCH = {
+    "robot": "latent_planner_ros.bench.robot:main",
+    "sim": "sim_bridge.bench:main",
+    "vae": "latent_planner_ros.bench.vae:main",
+}

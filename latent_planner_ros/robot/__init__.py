@@ -1,0 +1,1 @@
+"""Panda model: description files, limits, FK (pinocchio and batched torch), collision, samplers."""

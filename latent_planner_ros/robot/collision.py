@@ -1,0 +1,87 @@
+"""Self-collision and table collision of the Panda through pinocchio's coal bindings.
+
+Self-collision pairs are every pair of collision geometries minus those the SRDF disables. The table is
+the half-space z < 0 (a large box whose top face is at z = 0); panda_link0 stands on it and is exempt.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+from latent_planner_ros.robot.description import panda_description
+from latent_planner_ros.robot.panda import PandaModel, load_panda
+
+TABLE_NAME = "table"
+TABLE_HALF_EXTENTS = (2.0, 2.0, 0.5)
+"""Half extents [m] of the box that stands for the table (top face at z = 0)."""
+
+
+def _link_of(geometry_name: str) -> str:
+    return geometry_name.rsplit("_", 1)[0]
+
+
+@dataclass
+class CollisionChecker:
+    """Checks configurations for self-collision and table collision.
+
+    Not thread-safe: each thread or process makes its own (it holds pinocchio Data objects).
+
+    Attributes:
+        panda: the pinocchio model.
+        table: whether the table half-space counts as an obstacle.
+    """
+
+    panda: PandaModel = field(default_factory=load_panda)
+    table: bool = True
+
+    def __post_init__(self) -> None:
+        model = self.panda.model
+        geom = self.panda.collision_model.copy()
+        if self.table:
+            hx, hy, hz = TABLE_HALF_EXTENTS
+            place = pin.SE3(np.eye(3), np.array([0.0, 0.0, -hz]))
+            table = pin.GeometryObject(TABLE_NAME, 0, 0, place, coal.Box(2 * hx, 2 * hy, 2 * hz))
+            geom.addGeometryObject(table)
+        geom.addAllCollisionPairs()
+        pin.removeCollisionPairs(model, geom, str(panda_description().srdf))
+        # The table only collides with links that can reach it; link0 stands on it.
+        table_id = geom.getGeometryId(TABLE_NAME) if self.table else -1
+        self.self_pairs: list[int] = []
+        self.table_pairs: list[int] = []
+        for k, cp in enumerate(geom.collisionPairs):
+            names = {geom.geometryObjects[cp.first].name, geom.geometryObjects[cp.second].name}
+            if table_id in (cp.first, cp.second):
+                (other,) = names - {TABLE_NAME}
+                (self.table_pairs if _link_of(other) != "panda_link0" else []).append(k)
+            else:
+                self.self_pairs.append(k)
+        active = set(self.self_pairs) | set(self.table_pairs)
+        keep = [geom.collisionPairs[k] for k in sorted(active)]
+        geom.removeAllCollisionPairs()
+        for cp in keep:
+            geom.addCollisionPair(cp)
+        self.geom = geom
+        names = [(geom.geometryObjects[cp.first].name, geom.geometryObjects[cp.second].name) for cp in geom.collisionPairs]
+        self._is_table_pair = np.array([TABLE_NAME in pair for pair in names])
+        self.pair_names = names
+        self._data = model.createData()
+        self._gdata = pin.GeometryData(geom)
+
+    def collisions(self, q: np.ndarray) -> tuple[bool, bool]:
+        """(self-collision, table collision) for one configuration q (shape (7,), rad)."""
+        pin.computeCollisions(self.panda.model, self._data, self.geom, self._gdata, np.asarray(q, dtype=float), False)
+        hits = np.array([r.isCollision() for r in self._gdata.collisionResults])
+        return bool(np.any(hits & ~self._is_table_pair)), bool(np.any(hits & self._is_table_pair))
+
+    def in_collision(self, q: np.ndarray) -> bool:
+        """True if q (shape (7,), rad) is in self or table collision (stops at the first contact)."""
+        return bool(pin.computeCollisions(self.panda.model, self._data, self.geom, self._gdata, np.asarray(q, dtype=float), True))
+
+    def feasible(self, q: np.ndarray) -> np.ndarray:
+        """Boolean mask (N,) of collision-free configurations among q (shape (N, 7), rad)."""
+        q = np.atleast_2d(q)
+        return np.array([not self.in_collision(qi) for qi in q], dtype=bool)

@@ -1,0 +1,40 @@
+"""ament_python package: installs with pip, and with colcon for `ros2 run`."""
+
+import os
+import runpy
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "latent_planner_ros"
+
+# Node executables: `ros2 run latent_planner_ros <name>` after colcon build (setup.cfg puts them in
+# lib/latent_planner_ros), `python -m latent_planner_ros run <name>` after pip install.
+NODES = runpy.run_path(os.path.join(os.path.dirname(os.path.abspath(__file__)), PACKAGE, "registry.py"))["NODES"]
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*", "sim_bridge", "sim_bridge.*", "msg_adapters", "msg_adapters.*"]),
+    package_data={
+        f"{PACKAGE}.checkpoints": ["*.safetensors", "*.json"],
+        "sim_bridge": ["models/*.xml"],
+    },
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/config/scenarios", glob("config/scenarios/*.yaml")),
+        (f"share/{PACKAGE}/checkpoints", glob(f"{PACKAGE}/checkpoints/*.safetensors") + glob(f"{PACKAGE}/checkpoints/*.json")),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=False,
+    maintainer="latent_planner_ros maintainers",
+    maintainer_email="maintainers@latent-planner.dev",
+    description="Learned latent-space motion planning for the Franka Panda on ROS 2 (AMP-LS, LSPP).",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [f"latent-planner = {PACKAGE}.cli:main"]
+        + [f"{name} = {target}" for name, target in NODES.items()],
+    },
+)
