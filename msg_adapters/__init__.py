@@ -1,0 +1,27 @@
+"""Pure conversions between ROS 2 messages and numpy arrays (no nodes, no rclpy.node).
+
+Every refusal raises :class:`AdapterError` (a ValueError) naming the problem.
+"""
+
+from msg_adapters.errors import AdapterError
+from msg_adapters.joint_state import joint_state_to_q, q_to_joint_state
+from msg_adapters.point_cloud import cloud_to_fields, cloud_to_xyz, feature_names, xyz_to_cloud
+from msg_adapters.pose import PoseTarget, pose_stamped_to_target, target_to_pose_stamped
+from msg_adapters.trajectory import ee_path_to_path, joint_path_to_trajectory, path_to_arrays, trajectory_to_arrays
+
+__all__ = [
+    "AdapterError",
+    "PoseTarget",
+    "cloud_to_fields",
+    "cloud_to_xyz",
+    "ee_path_to_path",
+    "feature_names",
+    "joint_path_to_trajectory",
+    "joint_state_to_q",
+    "path_to_arrays",
+    "pose_stamped_to_target",
+    "q_to_joint_state",
+    "target_to_pose_stamped",
+    "trajectory_to_arrays",
+    "xyz_to_cloud",
+]
