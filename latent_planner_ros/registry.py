@@ -7,14 +7,17 @@ functions take an argv list and return an exit code.
 
 NODES = {
     "robot_info": "latent_planner_ros.nodes.robot_info:main",
+    "scene_encoder": "latent_planner_ros.nodes.scene_encoder:main",
     "sim": "sim_bridge.node:main",
 }
 
 TRAIN = {
+    "collision": "latent_planner_ros.training.train_collision:main",
     "vae": "latent_planner_ros.training.train_vae:main",
 }
 
 BENCH = {
+    "collision": "latent_planner_ros.bench.collision:main",
     "robot": "latent_planner_ros.bench.robot:main",
     "sim": "sim_bridge.bench:main",
     "vae": "latent_planner_ros.bench.vae:main",
