@@ -15,7 +15,9 @@ NODES = runpy.run_path(os.path.join(os.path.dirname(os.path.abspath(__file__)), 
 setup(
     name=PACKAGE,
     version="0.1.0",
-    packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*", "sim_bridge", "sim_bridge.*", "msg_adapters", "msg_adapters.*"]),
+    packages=find_packages(
+        include=[PACKAGE, f"{PACKAGE}.*", "sim_bridge", "sim_bridge.*", "msg_adapters", "msg_adapters.*"]
+    ),
     package_data={
         f"{PACKAGE}.checkpoints": ["*.safetensors", "*.json"],
         "sim_bridge": ["models/*.xml"],
@@ -25,7 +27,10 @@ setup(
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
         (f"share/{PACKAGE}/config/scenarios", glob("config/scenarios/*.yaml")),
-        (f"share/{PACKAGE}/checkpoints", glob(f"{PACKAGE}/checkpoints/*.safetensors") + glob(f"{PACKAGE}/checkpoints/*.json")),
+        (
+            f"share/{PACKAGE}/checkpoints",
+            glob(f"{PACKAGE}/checkpoints/*.safetensors") + glob(f"{PACKAGE}/checkpoints/*.json"),
+        ),
     ],
     install_requires=["setuptools"],
     zip_safe=False,

@@ -65,7 +65,9 @@ class CollisionChecker:
         for cp in keep:
             geom.addCollisionPair(cp)
         self.geom = geom
-        names = [(geom.geometryObjects[cp.first].name, geom.geometryObjects[cp.second].name) for cp in geom.collisionPairs]
+        names = [
+            (geom.geometryObjects[cp.first].name, geom.geometryObjects[cp.second].name) for cp in geom.collisionPairs
+        ]
         self._is_table_pair = np.array([TABLE_NAME in pair for pair in names])
         self.pair_names = names
         self._data = model.createData()
@@ -79,7 +81,11 @@ class CollisionChecker:
 
     def in_collision(self, q: np.ndarray) -> bool:
         """True if q (shape (7,), rad) is in self or table collision (stops at the first contact)."""
-        return bool(pin.computeCollisions(self.panda.model, self._data, self.geom, self._gdata, np.asarray(q, dtype=float), True))
+        return bool(
+            pin.computeCollisions(
+                self.panda.model, self._data, self.geom, self._gdata, np.asarray(q, dtype=float), True
+            )
+        )
 
     def feasible(self, q: np.ndarray) -> np.ndarray:
         """Boolean mask (N,) of collision-free configurations among q (shape (N, 7), rad)."""

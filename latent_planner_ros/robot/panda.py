@@ -78,7 +78,9 @@ def load_panda() -> PandaModel:
     """Build (once per process) the arm model from the example-robot-data URDF and SRDF."""
     desc = panda_description()
     full, collision, _visual = pin.buildModelsFromUrdf(
-        str(desc.urdf), package_dirs=[str(desc.package_root)], geometry_types=[pin.GeometryType.COLLISION, pin.GeometryType.VISUAL]
+        str(desc.urdf),
+        package_dirs=[str(desc.package_root)],
+        geometry_types=[pin.GeometryType.COLLISION, pin.GeometryType.VISUAL],
     )
     q_full = pin.neutral(full)
     locked = []

@@ -37,8 +37,12 @@ class TorchFK(torch.nn.Module):
             frame = model.frames[panda.frame_id(name)]
             frame_joint.append(int(frame.parentJoint))
             frame_place.append(frame.placement.homogeneous)
-        self.register_buffer("joint_placements", torch.as_tensor(placements, dtype=dtype))  # (7, 4, 4)
-        self.register_buffer("frame_placements", torch.as_tensor(np.stack(frame_place), dtype=dtype))  # (F, 4, 4)
+        self.register_buffer(
+            "joint_placements", torch.as_tensor(placements, dtype=dtype), persistent=False
+        )  # (7, 4, 4)
+        self.register_buffer(
+            "frame_placements", torch.as_tensor(np.stack(frame_place), dtype=dtype), persistent=False
+        )  # (F, 4, 4)
         self.frame_joint = frame_joint  # joint index 0..7 (0 = world) each frame hangs from
         self.ee_index = self.frames.index(EE_FRAME) if EE_FRAME in self.frames else None
 

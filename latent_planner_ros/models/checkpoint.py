@@ -1,0 +1,69 @@
+"""Checkpoint I/O: weights in safetensors, metadata in a JSON file beside them. No pickles.
+
+A checkpoint named `stem` is the pair `stem.safetensors` + `stem.json`. Loading validates both and raises
+CheckpointError naming the file and the problem (missing, truncated/corrupt, mismatched architecture).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import torch
+from safetensors import SafetensorError
+from safetensors.torch import load_file, save_file
+
+
+class CheckpointError(RuntimeError):
+    """A checkpoint is missing, corrupt or does not match the model it is loaded into."""
+
+
+def save_checkpoint(stem: str | Path, tensors: dict[str, torch.Tensor], metadata: dict) -> Path:
+    """Write `stem.safetensors` and `stem.json` atomically (temp file + rename); returns the weights path."""
+    stem = Path(stem)
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    weights, meta = stem.with_suffix(".safetensors"), stem.with_suffix(".json")
+    tmp_w, tmp_m = weights.with_suffix(".safetensors.tmp"), meta.with_suffix(".json.tmp")
+    save_file({k: v.detach().contiguous().cpu() for k, v in tensors.items()}, str(tmp_w))
+    tmp_m.write_text(json.dumps(metadata, indent=2, sort_keys=True) + "\n")
+    for tmp in (tmp_w, tmp_m):
+        tmp.chmod(0o644)
+    tmp_w.replace(weights)
+    tmp_m.replace(meta)
+    return weights
+
+
+def load_checkpoint(stem: str | Path) -> tuple[dict[str, torch.Tensor], dict]:
+    """Read the tensors and metadata of `stem`; raises CheckpointError on any problem."""
+    stem = Path(stem)
+    if stem.suffix in (".safetensors", ".json"):
+        stem = stem.with_suffix("")
+    weights, meta = stem.with_suffix(".safetensors"), stem.with_suffix(".json")
+    for f in (weights, meta):
+        if not f.is_file():
+            raise CheckpointError(f"checkpoint file missing: {f}")
+    try:
+        metadata = json.loads(meta.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise CheckpointError(f"checkpoint metadata {meta} is not valid JSON: {e}") from e
+    try:
+        tensors = load_file(str(weights))
+    except (SafetensorError, OSError, ValueError, RuntimeError) as e:
+        raise CheckpointError(f"checkpoint weights {weights} are truncated or corrupt: {e}") from e
+    return tensors, metadata
+
+
+def load_state_into(module: torch.nn.Module, tensors: dict[str, torch.Tensor], source: str | Path) -> None:
+    """Load tensors into `module` strictly; raises CheckpointError listing missing/unexpected/mismatched keys."""
+    own = module.state_dict()
+    missing = sorted(set(own) - set(tensors))
+    unexpected = sorted(set(tensors) - set(own))
+    mismatched = sorted(k for k in set(own) & set(tensors) if own[k].shape != tensors[k].shape)
+    if missing or unexpected or mismatched:
+        detail = "; ".join(
+            f"{label}: {', '.join(keys[:5])}{' ...' if len(keys) > 5 else ''}"
+            for label, keys in (("missing", missing), ("unexpected", unexpected), ("shape mismatch", mismatched))
+            if keys
+        )
+        raise CheckpointError(f"checkpoint {source} does not match the model ({detail})")
+    module.load_state_dict(tensors, strict=True)

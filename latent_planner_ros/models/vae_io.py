@@ -1,0 +1,43 @@
+"""Save and load the robot-state VAE (safetensors + JSON metadata), and find the shipped weights."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from latent_planner_ros.models.checkpoint import CheckpointError, load_checkpoint, load_state_into, save_checkpoint
+from latent_planner_ros.models.vae import RobotStateVAE
+from latent_planner_ros.models.vae_config import VaeConfig
+
+CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
+DEFAULT_VAE = "vae_kinematic"
+"""Stem of the shipped default VAE in CHECKPOINT_DIR."""
+
+
+def shipped_vae_path(name: str = DEFAULT_VAE) -> Path:
+    """Path stem of a shipped VAE checkpoint (`vae_kinematic` or `vae_plain`)."""
+    return CHECKPOINT_DIR / name
+
+
+def save_vae(stem: str | Path, model: RobotStateVAE, metadata: dict) -> Path:
+    """Write the model's weights and `metadata` (the architecture is added under "architecture")."""
+    meta = dict(metadata)
+    meta["kind"] = "robot_state_vae"
+    meta["architecture"] = model.config.to_dict()
+    meta["normalisation"] = {"x_mean": model.x_mean.tolist(), "x_std": model.x_std.tolist()}
+    return save_checkpoint(stem, model.state_dict(), meta)
+
+
+def load_vae(stem: str | Path | None = None) -> tuple[RobotStateVAE, dict]:
+    """Load a VAE (default: the shipped one) in eval mode; raises CheckpointError naming file and problem."""
+    stem = shipped_vae_path() if stem is None else Path(stem)
+    tensors, meta = load_checkpoint(stem)
+    if meta.get("kind") != "robot_state_vae":
+        raise CheckpointError(f"checkpoint {stem} is not a robot-state VAE (kind={meta.get('kind')!r})")
+    try:
+        config = VaeConfig(**meta["architecture"])
+    except (KeyError, TypeError, ValueError) as e:
+        raise CheckpointError(f"checkpoint {stem} has a bad 'architecture' entry: {e}") from e
+    model = RobotStateVAE(config)
+    load_state_into(model, tensors, stem)
+    model.eval()
+    return model, meta
