@@ -29,6 +29,7 @@ from latent_planner_ros.models.vae_io import save_vae
 from latent_planner_ros.models.vae_metrics import prior_sample_metrics, reconstruction_metrics
 from latent_planner_ros.robot.collision import CollisionChecker
 from latent_planner_ros.robot.sampler import FeasibleSampler
+from latent_planner_ros.robot.spheres import panda_spheres
 from latent_planner_ros.robot.state import robot_state
 from latent_planner_ros.training.vae_train_config import TrainVaeConfig
 
@@ -71,6 +72,7 @@ class VaeTrainer:
         heldout_rng = np.random.default_rng(10_000 + config.seed)
         self.heldout = FeasibleSampler(heldout_rng).sample(config.heldout)
         self.checker = CollisionChecker()
+        self.spheres = panda_spheres()
         self.pool = torch.as_tensor(self.sampler.sample(config.pool), dtype=torch.float32)
 
     # -- normalisation ------------------------------------------------------------------------
@@ -105,6 +107,10 @@ class VaeTrainer:
         kl = self.model.kl(mu, logvar).mean()
         lam = self.geco.value
         loss = (kl + lam * mse * x.shape[-1]) / (1.0 + lam)
+        penalty = torch.zeros(())
+        if c.feasibility_weight > 0:
+            penalty = self.feasibility_penalty()
+            loss = loss + c.feasibility_weight * penalty
         for g in self.opt.param_groups:
             g["lr"] = lr
         self.opt.zero_grad(set_to_none=True)
@@ -113,7 +119,16 @@ class VaeTrainer:
         self.opt.step()
         self.geco.update(math.log(max(mse.item(), 1e-12)), tau=math.log(tau))
         self.iteration += 1
-        return {"loss": loss.item(), "mse": mse.item(), "kl": kl.item(), "lambda": lam}
+        return {"loss": loss.item(), "mse": mse.item(), "kl": kl.item(), "lambda": lam, "penalty": penalty.item()}
+
+    def feasibility_penalty(self) -> torch.Tensor:
+        """Mean sphere self/table penetration [m] beyond the margin of decoded prior samples (scalar)."""
+        c = self.config
+        z = torch.randn(c.feasibility_batch, c.latent, generator=self.gen).to(self.device)
+        q = self.model.decode(z).q
+        centres = self.spheres.centres_world(self.model.fk(q))
+        depth = self.spheres.self_penetration(centres) + self.spheres.table_penetration(centres)
+        return torch.relu(depth - c.feasibility_margin).mean()
 
     # -- evaluation and checkpoints -------------------------------------------------------------
     def evaluate(self, last: dict, tau: float, lr: float) -> dict:

@@ -31,6 +31,12 @@ class TrainVaeConfig:
     lambda_init: float = 10.0
     lambda_min: float = 1e-2
     lambda_max: float = 1e4
+    feasibility_weight: float = 0.0
+    """weight [1/m] of the sphere self/table-penetration penalty on decoded prior samples (0 = off, the seed)"""
+    feasibility_margin: float = 0.01
+    """penetration depth [m] tolerated by that penalty (the spheres over-approximate the links)"""
+    feasibility_batch: int = 256
+    """prior samples per iteration for the penalty"""
     pool: int = 300_000
     """feasible states held in memory; `refresh` of them are replaced by fresh samples every iteration"""
     refresh: int = 128
