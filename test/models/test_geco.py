@@ -2,6 +2,7 @@
 
 import math
 
+import numpy as np
 import pytest
 
 from latent_planner_ros.models.geco import Geco, GecoConfig
@@ -41,3 +42,11 @@ def test_bad_config_is_refused():
         GecoConfig(alpha_ma=1.0)
     with pytest.raises(ValueError):
         GecoConfig(lambda_init=0.0)
+
+
+def test_array_multipliers_update_elementwise_and_scale():
+    g = Geco(GecoConfig(tau=1.0, step=1.0, alpha_ma=0.0), shape=(3,))
+    out = g.update([1.0, 2.0, 0.0])
+    np.testing.assert_allclose(out, np.exp([0.0, 1.0, -1.0]))
+    g.scale([0.5, 1.0, 1.0])
+    np.testing.assert_allclose(g.value, np.exp([0.0, 1.0, -1.0]) * [0.5, 1.0, 1.0])

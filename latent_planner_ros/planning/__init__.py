@@ -1,0 +1,1 @@
+"""Planners: AMP-LS (latent-space activation maximisation), collision backends, OMPL baseline."""

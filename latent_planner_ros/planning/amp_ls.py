@@ -1,0 +1,310 @@
+"""AMP-LS: reaching by activation maximisation in the latent space of the robot-state VAE.
+
+Seed chapter 7, Algorithm 1: z_0 encodes the start state; every step decodes z_t, and if the decoded
+state's collision probability is below gamma_col, the linear interpolation from the last accepted state is
+checked explicitly. A colliding interpolation scales lambda_pos and lambda_ori by i/m and back-traces z to
+the last accepted latent; a free one is appended to the path. The loss weights are adapted by GECO
+(appendix 6.B.1) and z takes one optimiser step on
+
+    L = lambda_pos |e_pos - target_pos| + lambda_ori |e_ori - target_ori| + lambda_col (-log(1 - p_col))
+        + (-log p(z)).
+
+`plan` runs this open loop; `step` runs it one tick at a time for closed-loop control, keeping z and the
+multipliers across ticks and accepting a new goal and scene at every tick.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+from latent_planner_ros.models.geco import Geco, GecoConfig
+from latent_planner_ros.models.vae import RobotStateVAE
+from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.collision_backend import CollisionBackend
+from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.result import PlanResult
+from latent_planner_ros.planning.time_parameterisation import interpolate, time_parameterise
+from latent_planner_ros.robot.limits import Q_MAX, Q_MIN, V_MAX
+from latent_planner_ros.robot.rotations import matrix_to_quat, matrix_to_rot6d, rot6d_to_matrix, rotation_angle_between
+from latent_planner_ros.robot.state import robot_state
+from latent_planner_ros.robot.torch_fk import TorchFK
+
+
+@dataclass
+class StepResult:
+    """One closed-loop tick.
+
+    Attributes:
+        command: (7,) next joint target [rad], within limits and reachable at the velocity limits in dt.
+        accepted: a new collision-checked state was accepted this tick.
+        reached: the last accepted state is within tolerance of the goal.
+        pos_err_m, ori_err_rad: error of the last accepted state to the goal.
+        p_collision: collision probability of the current decoded state.
+        reason: a short status ("tracking", "reached", "rejected: p_col", "backtraced", ...).
+        losses: loss terms and multipliers of the last iteration.
+    """
+
+    command: np.ndarray
+    accepted: bool
+    reached: bool
+    pos_err_m: float
+    ori_err_rad: float
+    p_collision: float
+    reason: str
+    losses: dict = field(default_factory=dict)
+
+
+class _Search:
+    """Optimisation state of a batch of latent seeds."""
+
+    def __init__(self, planner: AmpLs, start_q: np.ndarray):
+        cfg = planner.config
+        b = cfg.n_seeds
+        with torch.no_grad():
+            z0 = planner.vae.encode_q(torch.as_tensor(start_q, dtype=torch.float32)[None])
+        z = z0.repeat(b, 1)
+        if b > 1:
+            z[1:] += cfg.seed_noise * torch.randn(b - 1, z.shape[1], generator=planner.generator)
+        self.z = torch.nn.Parameter(z)
+        self.opt = (
+            torch.optim.Adam([self.z], lr=cfg.lr) if cfg.optimizer == "adam" else torch.optim.SGD([self.z], lr=cfg.lr)
+        )
+        self.z_prev = self.z.detach().clone()
+        self.q_prev = np.repeat(np.asarray(start_q, dtype=float)[None], b, axis=0)
+        self.paths: list[list[np.ndarray]] = [[np.asarray(start_q, dtype=float)[None]] for _ in range(b)]
+        geco = dict(alpha_ma=cfg.geco_alpha_ma, lambda_min=cfg.lambda_min, lambda_max=cfg.lambda_max)
+        # lambda_target scales lambda_pos and lambda_ori together
+        self.target = Geco(GecoConfig(tau=-cfg.tau_prior, step=cfg.geco_step_target, lambda_init=1.0, **geco), (b,))
+        self.col = Geco(GecoConfig(tau=cfg.tau_col, step=cfg.geco_step_col, lambda_init=cfg.lambda_col, **geco), (b,))
+        self.best_err = np.full(b, np.inf)
+        self.last_improved = np.zeros(b, dtype=int)
+        self.iteration = 0
+        self.backtraces = 0
+        self.last_losses: dict = {}
+
+
+class AmpLs:
+    """The AMP-LS planner over a frozen VAE and a collision backend.
+
+    Args:
+        vae: the robot-state VAE (eval mode; its weights are not changed).
+        backend: collision backend used for the collision loss and the explicit checks.
+        config: planner configuration.
+        seed: seed of the planner's own torch generator (extra latent seeds).
+    """
+
+    name = "amp_ls"
+
+    def __init__(self, vae: RobotStateVAE, backend: CollisionBackend, config: AmpLsConfig | None = None, seed: int = 0):
+        self.vae = vae.eval()
+        for p in self.vae.parameters():
+            p.requires_grad_(False)
+        self.backend = backend
+        self.config = config or AmpLsConfig()
+        self.generator = torch.Generator().manual_seed(seed)
+        self.fk64 = TorchFK(dtype=torch.float64)
+        self._search: _Search | None = None
+
+    # -- shared pieces -----------------------------------------------------------------------------
+    def _pose(self, z: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Decoded q (B, 7), TCP position (B, 3) and 6D orientation (B, 6) used by the target losses."""
+        dec = self.vae.decode(z)
+        if self.config.target_on_fk and self.vae.config.decoder != "kinematic":
+            x = robot_state(dec.q, self.vae.fk)
+            return dec.q, x[:, 7:10], x[:, 10:16]
+        return dec.q, dec.pos, dec.rot6d
+
+    def _errors(self, pos: torch.Tensor, rot6d: torch.Tensor, goal: Goal) -> tuple[np.ndarray, np.ndarray]:
+        target_r = torch.as_tensor(goal.rotation, dtype=pos.dtype)
+        pos_err = (pos - torch.as_tensor(goal.position, dtype=pos.dtype)).norm(dim=-1)
+        ori_err = rotation_angle_between(rot6d_to_matrix(rot6d), target_r.expand(len(pos), 3, 3))
+        return pos_err.detach().numpy().astype(float), ori_err.detach().numpy().astype(float)
+
+    def _reached(self, pos_err: float, ori_err: float, goal: Goal) -> bool:
+        return pos_err < goal.pos_tol and (ori_err < goal.ori_tol or not self.config.use_orientation)
+
+    def _iterate(self, s: _Search, goal: Goal, accept: bool, force_col: bool = True) -> dict:
+        """One iteration of Algorithm 1 for every seed; returns what happened."""
+        cfg = self.config
+        events = {"accepted": [], "reached": [], "backtraced": [], "rejected": []}
+        q, pos, ori = self._pose(s.z)
+        p_col = self.backend.p_collision(q, s.z) if cfg.use_collision else torch.zeros(len(q))
+        pos_err, ori_err = self._errors(pos, ori, goal)
+        if accept:
+            q_np, p_np = q.detach().double().numpy(), p_col.detach().numpy()
+            for b in range(len(q_np)):
+                if cfg.use_collision and p_np[b] >= cfg.col_threshold:
+                    events["rejected"].append(b)
+                    continue
+                seg = interpolate(s.q_prev[b], q_np[b], cfg.interp_steps)
+                hits = self.backend.check(seg) if cfg.use_collision else np.zeros(len(seg), dtype=bool)
+                if hits.any():
+                    i = int(np.argmax(hits)) + 1
+                    s.target.scale(np.where(np.arange(len(q_np)) == b, i / cfg.interp_steps, 1.0))
+                    with torch.no_grad():
+                        s.z[b] = s.z_prev[b]
+                    s.backtraces += 1
+                    events["backtraced"].append(b)
+                    continue
+                s.paths[b].append(seg)
+                events["accepted"].append(b)
+                s.q_prev[b] = q_np[b]
+                with torch.no_grad():
+                    s.z_prev[b] = s.z[b]
+                if self._reached(pos_err[b], ori_err[b], goal):
+                    events["reached"].append(b)
+            if events["reached"]:
+                events["pos_err"], events["ori_err"], events["p_col"] = pos_err, ori_err, p_col.detach().numpy()
+                return events
+            if events["backtraced"]:
+                q, pos, ori = self._pose(s.z)
+                p_col = self.backend.p_collision(q, s.z) if cfg.use_collision else torch.zeros(len(q))
+        target_pos = torch.as_tensor(goal.position, dtype=pos.dtype)
+        target_ori = matrix_to_rot6d(torch.as_tensor(goal.rotation, dtype=pos.dtype))
+        l_pos = (pos - target_pos).norm(dim=-1)
+        l_ori = (ori - target_ori).norm(dim=-1) if cfg.use_orientation else torch.zeros_like(l_pos)
+        l_col = -torch.log1p(-p_col.clamp(max=1 - 1e-6)) if cfg.use_collision else torch.zeros_like(l_pos)
+        l_prior = 0.5 * s.z.pow(2).mean(-1)
+        lam_t = torch.as_tensor(s.target.update(-l_prior.detach().numpy()), dtype=pos.dtype)
+        lam_c = torch.as_tensor(s.col.update(l_col.detach().numpy()), dtype=pos.dtype)
+        loss = lam_t * (cfg.lambda_pos * l_pos + cfg.lambda_ori * l_ori) + lam_c * l_col
+        if cfg.use_prior:
+            loss = loss + l_prior
+        s.opt.zero_grad(set_to_none=True)
+        loss.sum().backward()
+        s.opt.step()
+        s.iteration += 1
+        s.last_losses = {
+            "l_pos": float(l_pos.detach().min()),
+            "l_ori": float(l_ori.detach().min()),
+            "l_col": float(l_col.detach().min()),
+            "l_prior": float(l_prior.detach().min()),
+            "lambda_pos": float(cfg.lambda_pos * lam_t.min()),
+            "lambda_ori": float(cfg.lambda_ori * lam_t.min()),
+            "lambda_col": float(lam_c.max()),
+        }
+        events["pos_err"], events["ori_err"], events["p_col"] = pos_err, ori_err, p_col.detach().numpy()
+        return events
+
+    # -- open loop ------------------------------------------------------------------------------------
+    def plan(self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None) -> PlanResult:
+        """Plan from start_q (7,) [rad] to `goal`; `cloud` (N, 3) [m] is the observed scene."""
+        cfg = self.config
+        t0 = time.perf_counter()
+        start_q = np.asarray(start_q, dtype=float)
+        if start_q.shape != (7,) or not np.all(np.isfinite(start_q)):
+            raise ValueError(f"start_q must be 7 finite joint positions, got {start_q!r}")
+        if cfg.use_collision:
+            self.backend.set_scene(np.zeros((0, 3)) if cloud is None else cloud)
+        s = _Search(self, start_q)
+        t_setup = time.perf_counter() - t0
+        reason, winner = "step budget exhausted", None
+        for t in range(cfg.max_steps):
+            ev = self._iterate(s, goal, accept=t > 0)
+            if ev["reached"]:
+                winner, reason = ev["reached"][0], "reached"
+                break
+            err = ev["pos_err"]
+            improved = err < s.best_err - 0.002
+            s.best_err = np.where(improved, err, s.best_err)
+            s.last_improved = np.where(improved, t, s.last_improved)
+            if np.all(t - s.last_improved > cfg.patience):
+                reason = "no progress"
+                break
+        if winner is None:
+            ends = np.array([self._fk_err(p[-1][-1], goal)[0] for p in s.paths])
+            winner = int(np.argmin(ends))
+        return self._result(s, winner, goal, reason, time.perf_counter() - t0, t_setup)
+
+    def _fk_err(self, q: np.ndarray, goal: Goal) -> tuple[float, float]:
+        pos, rot = self.fk64.ee_pose(torch.as_tensor(q, dtype=torch.float64)[None])
+        pe = float((pos[0] - torch.as_tensor(goal.position)).norm())
+        oe = float(rotation_angle_between(rot[0], torch.as_tensor(goal.rotation)))
+        return pe, oe
+
+    def _result(self, s: _Search, b: int, goal: Goal, reason: str, elapsed: float, t_setup: float) -> PlanResult:
+        q_path = np.concatenate(s.paths[b])
+        with torch.no_grad():
+            pos, rot = self.fk64.ee_pose(torch.as_tensor(q_path))
+        pos_err, ori_err = self._fk_err(q_path[-1], goal)
+        success = reason == "reached" and self._reached(pos_err, ori_err, goal)
+        return PlanResult(
+            success=success,
+            q_path=q_path,
+            times=time_parameterise(q_path, self.config.speed_scale),
+            ee_positions=pos.numpy(),
+            ee_quaternions=matrix_to_quat(rot.numpy()),
+            planning_time_s=elapsed,
+            reason=reason if success or reason != "reached" else "reached by the model but not by the exact FK",
+            final_pos_err_m=pos_err,
+            final_ori_err_rad=ori_err,
+            iterations=s.iteration,
+            timings={"setup_s": t_setup, "total_s": elapsed},
+            info={"backtraces": s.backtraces, "seed": b, **s.last_losses},
+        )
+
+    # -- closed loop --------------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Forget the closed-loop state (the next `step` re-encodes the measured state)."""
+        self._search = None
+
+    def step(
+        self,
+        q_measured: np.ndarray,
+        goal: Goal,
+        cloud: np.ndarray | None = None,
+        dt: float = 0.1,
+        max_iterations: int = 1,
+        resync_rad: float = 0.3,
+    ) -> StepResult:
+        """One closed-loop tick: at most `max_iterations` optimisation steps, stopping at the first accepted one.
+
+        The returned command lies on the collision-checked segment from q_measured to the accepted state,
+        scaled so no joint exceeds speed_scale * its velocity limit over dt [s].
+        """
+        cfg = self.config
+        q_measured = np.asarray(q_measured, dtype=float)
+        if cloud is not None and cfg.use_collision:
+            self.backend.set_scene(cloud)
+        s = self._search
+        if s is None or np.abs(s.q_prev[0] - q_measured).max() > resync_rad:
+            s = self._search = _Search(self, q_measured)
+        s.q_prev[:] = q_measured  # the robot is where it is: check from here
+        ev: dict = {}
+        for _ in range(max_iterations):
+            ev = self._iterate(s, goal, accept=True)
+            if ev["accepted"] or ev["reached"]:
+                break
+        b = (ev["reached"] or ev["accepted"] or [0])[0]
+        accepted = bool(ev["accepted"])
+        target = s.q_prev[b] if accepted else q_measured
+        delta = target - q_measured
+        limit = cfg.speed_scale * V_MAX * dt
+        scale = min(1.0, float(np.min(limit / np.maximum(np.abs(delta), 1e-12))))
+        command = np.clip(q_measured + scale * delta, Q_MIN, Q_MAX)
+        pos_err, ori_err = self._fk_err(s.q_prev[b], goal)
+        reached = self._reached(pos_err, ori_err, goal)
+        if ev.get("reached") or reached:
+            reason = "reached"
+        elif accepted:
+            reason = "tracking"
+        elif ev.get("backtraced"):
+            reason = "backtraced: interpolated step collides"
+        elif ev.get("rejected"):
+            reason = "rejected: decoded state likely in collision"
+        else:
+            reason = "optimising"
+        return StepResult(
+            command=command,
+            accepted=accepted,
+            reached=reached,
+            pos_err_m=pos_err,
+            ori_err_rad=ori_err,
+            p_collision=float(ev["p_col"][b]) if "p_col" in ev else 0.0,
+            reason=reason,
+            losses=dict(s.last_losses),
+        )

@@ -1,0 +1,94 @@
+"""Configuration of the AMP-LS planner (seed chapter 7, Algorithm 1; GECO as in appendix 6.B.1)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+BACKENDS = ("learned", "geometric", "none")
+
+
+@dataclass
+class AmpLsConfig:
+    """Every field maps 1:1 onto a ROS parameter of the planner node."""
+
+    lr: float = 0.06
+    """latent step size (Adam learning rate) [latent units]"""
+    optimizer: str = "adam"
+    """"adam" or "sgd" (plain gradient step, seed eq. 3)"""
+    max_steps: int = 300
+    """optimisation step budget of one open-loop plan"""
+    pos_tol: float = 0.01
+    """position tolerance [m]"""
+    ori_tol_deg: float = 15.0
+    """orientation tolerance [deg]"""
+    use_collision: bool = True
+    """collision loss and explicit collision checking (ablation: False)"""
+    use_prior: bool = True
+    """prior loss -log p(z) (ablation: False)"""
+    use_orientation: bool = True
+    """orientation loss and tolerance (False: position only)"""
+    collision_backend: str = "learned"
+    """"learned" (scene embedding + collision predictor), "geometric" (spheres vs cloud) or "none\""""
+    col_threshold: float = 0.2
+    """gamma_col: a decoded state with p(collision) above this is not accepted"""
+    interp_steps: int = 15
+    """m: states checked on the linear interpolation of each accepted step"""
+    target_on_fk: bool = True
+    """target losses on the exact torch FK of the decoded q instead of the decoded pose"""
+    n_seeds: int = 1
+    """latent seeds optimised together (the first to reach the goal wins)"""
+    seed_noise: float = 0.3
+    """std of the perturbation of the extra seeds around the encoded start [latent units]"""
+    lambda_pos: float = 1.0
+    """initial weight of the position loss [1/m]"""
+    lambda_ori: float = 0.3
+    """initial weight of the orientation loss"""
+    lambda_col: float = 1.0
+    """initial weight of the collision loss"""
+    tau_prior: float = 0.9
+    """GECO target of the prior loss 0.5 * mean(z^2): lambda_pos and lambda_ori grow while the prior loss is
+    below it and shrink while above (the seed's lambda_prior, appendix 6.B.1, moved onto the target terms)"""
+    tau_col: float = 0.1
+    """GECO target of the collision loss -log(1 - p): lambda_col grows while the loss is above it"""
+    geco_alpha_ma: float = 0.9
+    """GECO moving-average factor"""
+    geco_step_target: float = 0.05
+    """GECO learning rate of lambda_pos / lambda_ori"""
+    geco_step_col: float = 0.05
+    """GECO learning rate of lambda_col"""
+    lambda_min: float = 1e-3
+    lambda_max: float = 1e3
+    patience: int = 80
+    """stop with "no progress" after this many steps without 2 mm of improvement"""
+    speed_scale: float = 0.5
+    """fraction of the joint velocity limits used by the time parameterisation"""
+
+    def __post_init__(self) -> None:
+        problems = []
+        if self.optimizer not in ("adam", "sgd"):
+            problems.append(f"optimizer must be 'adam' or 'sgd', got {self.optimizer!r}")
+        if self.collision_backend not in BACKENDS:
+            problems.append(f"collision_backend must be one of {BACKENDS}, got {self.collision_backend!r}")
+        for name in ("lr", "pos_tol", "ori_tol_deg", "seed_noise", "speed_scale", "lambda_min", "lambda_max"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                problems.append(f"{name} must be a positive finite number, got {v!r}")
+        for name in ("max_steps", "interp_steps", "n_seeds", "patience"):
+            if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
+                problems.append(f"{name} must be an integer >= 1, got {getattr(self, name)!r}")
+        if not 0.0 < self.col_threshold < 1.0:
+            problems.append(f"col_threshold must be in (0, 1), got {self.col_threshold}")
+        if not 0.0 <= self.geco_alpha_ma < 1.0:
+            problems.append(f"geco_alpha_ma must be in [0, 1), got {self.geco_alpha_ma}")
+        if self.speed_scale > 1.0:
+            problems.append(f"speed_scale must be <= 1, got {self.speed_scale}")
+        if problems:
+            raise ValueError("; ".join(problems))
+
+    @property
+    def ori_tol(self) -> float:
+        return math.radians(self.ori_tol_deg)
+
+    def to_dict(self) -> dict:
+        return asdict(self)

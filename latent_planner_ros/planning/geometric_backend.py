@@ -1,0 +1,97 @@
+"""Geometric collision backend: the arm as spheres against the observed point cloud.
+
+The differentiable cost samples a Euclidean distance field of the cloud (voxel grid, trilinear
+interpolation); the hard check uses exact nearest-point distances from a KD-tree, so no checked state
+has an observed point inside any of the arm's (conservative) spheres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from scipy.ndimage import distance_transform_edt
+from scipy.spatial import cKDTree
+
+from latent_planner_ros.robot.panda import LINK_FRAMES
+from latent_planner_ros.robot.spheres import panda_spheres
+from latent_planner_ros.robot.torch_fk import TorchFK
+
+
+@dataclass(frozen=True)
+class GeometricBackendConfig:
+    resolution: float = 0.02
+    """distance-field voxel size [m]"""
+    bounds_min: tuple[float, float, float] = (-1.0, -1.0, -0.1)
+    """lower corner of the distance field [m]"""
+    bounds_max: tuple[float, float, float] = (1.0, 1.0, 1.3)
+    """upper corner of the distance field [m]"""
+    margin: float = 0.01
+    """clearance [m] below which the cost starts to rise"""
+    temperature: float = 0.01
+    """width [m] of the sigmoid from clearance to probability"""
+    check_margin: float = 0.0
+    """extra clearance [m] required by the hard check"""
+
+
+class GeometricBackend:
+    name = "geometric"
+
+    def __init__(self, config: GeometricBackendConfig | None = None):
+        self.config = config or GeometricBackendConfig()
+        self.spheres = panda_spheres()
+        moving = self.spheres.link != LINK_FRAMES.index("panda_link0")  # the base stands on the table
+        self._idx = torch.as_tensor(np.flatnonzero(moving))
+        self._radius = torch.as_tensor(self.spheres.radius[moving], dtype=torch.float32)
+        self._fk = TorchFK()
+        self._lo = np.asarray(self.config.bounds_min, dtype=float)
+        self._hi = np.asarray(self.config.bounds_max, dtype=float)
+        self.set_scene(np.zeros((0, 3)))
+
+    def set_scene(self, cloud: np.ndarray) -> None:
+        cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
+        cloud = cloud[np.all(np.isfinite(cloud), axis=1)]
+        self.cloud = cloud
+        self._tree = cKDTree(cloud) if len(cloud) else None
+        res = self.config.resolution
+        shape = np.ceil((self._hi - self._lo) / res).astype(int) + 1
+        occ = np.zeros(shape, dtype=bool)
+        inside = cloud[np.all((cloud >= self._lo) & (cloud <= self._hi), axis=1)]
+        if len(inside):
+            ijk = np.round((inside - self._lo) / res).astype(int)
+            occ[ijk[:, 0], ijk[:, 1], ijk[:, 2]] = True
+            dist = distance_transform_edt(~occ) * res
+        else:
+            dist = np.full(shape, 10.0)
+        # grid_sample wants (N, C, D, H, W) indexed [z, y, x]; our array is [x, y, z]
+        self._field = torch.as_tensor(dist.transpose(2, 1, 0)[None, None], dtype=torch.float32)
+
+    def _centres(self, q: torch.Tensor) -> torch.Tensor:
+        frames = self._fk(q.float())
+        return self.spheres.centres_world(frames)[:, self._idx]  # (B, S, 3)
+
+    def clearance(self, q: torch.Tensor) -> torch.Tensor:
+        """Distance-field clearance [m] of every moving sphere, (B, S) (negative = penetrating)."""
+        c = self._centres(q)
+        lo = torch.as_tensor(self._lo, dtype=c.dtype)
+        hi = torch.as_tensor(self._hi, dtype=c.dtype)
+        grid = (2.0 * (c - lo) / (hi - lo) - 1.0).view(1, c.shape[0], c.shape[1], 1, 3)
+        d = F.grid_sample(self._field, grid, mode="bilinear", padding_mode="border", align_corners=True)
+        return d.view(c.shape[0], c.shape[1]) - self._radius
+
+    def p_collision(self, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
+        cfg = self.config
+        logits = (cfg.margin - self.clearance(q)) / cfg.temperature
+        return torch.sigmoid(logits.max(dim=1).values)
+
+    def check(self, q: np.ndarray) -> np.ndarray:
+        q = np.atleast_2d(q)
+        if self._tree is None:
+            return np.zeros(len(q), dtype=bool)
+        with torch.no_grad():
+            c = self._centres(torch.as_tensor(q, dtype=torch.float32)).numpy()
+        d, _ = self._tree.query(c.reshape(-1, 3))
+        clear = d.reshape(c.shape[:2]) - self._radius.numpy()[None]
+        return np.any(clear < self.config.check_margin, axis=1)

@@ -1,0 +1,96 @@
+"""AMP-LS core: limits, time parameterisation, back-tracing, closed-loop steps."""
+
+import numpy as np
+import pytest
+
+from latent_planner_ros.planning.amp_ls import AmpLs
+from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.collision_backend import NoCollision
+from latent_planner_ros.planning.geometric_backend import GeometricBackend
+from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.time_parameterisation import time_parameterise
+from latent_planner_ros.robot.limits import Q_MAX, Q_MIN, Q_READY, V_MAX
+from latent_planner_ros.robot.panda import load_panda
+
+
+def _goal_of(q: np.ndarray) -> Goal:
+    m = load_panda().fk(q)
+    return Goal(m.translation, m.rotation)
+
+
+def _check_path(result, speed_scale=0.5):
+    q, t = result.q_path, result.times
+    assert np.all(q >= Q_MIN - 1e-9) and np.all(q <= Q_MAX + 1e-9)
+    v = np.abs(np.diff(q, axis=0)) / np.maximum(np.diff(t), 1e-12)[:, None]
+    assert np.all(v <= speed_scale * V_MAX * (1 + 1e-6))
+    np.testing.assert_allclose(result.ee_positions[0], load_panda().fk(q[0]).translation, atol=1e-9)
+
+
+def test_free_space_plan_reaches_a_nearby_goal(shipped_vae):
+    goal_q = Q_READY + np.array([0.4, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3])
+    planner = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(use_collision=False, n_seeds=4))
+    result = planner.plan(Q_READY, _goal_of(goal_q))
+    assert result.success, result.reason
+    assert result.final_pos_err_m < 0.01 and result.final_ori_err_rad < np.radians(15)
+    _check_path(result)
+    np.testing.assert_array_equal(result.q_path[0], Q_READY)
+
+
+class CostBlindBackend(GeometricBackend):
+    """A collision cost that sees nothing (as a wrong learned predictor would) over the exact check."""
+
+    def p_collision(self, q, z):
+        return super().p_collision(q, z) * 0.0
+
+
+def test_a_wall_of_points_triggers_back_tracing_and_is_never_crossed(shipped_vae):
+    start = Q_READY.copy()
+    goal_q = Q_READY + np.array([1.2, 0.3, 0.0, 0.3, 0.0, -0.2, 0.0])
+    goal = _goal_of(goal_q)
+    # a dense wall of points across the straight line from the start TCP to the goal
+    a, b = load_panda().fk(start).translation, goal.position
+    mid = (a + b) / 2
+    normal = (b - a) / np.linalg.norm(b - a)
+    u = np.cross(normal, [0, 0, 1.0])
+    u /= np.linalg.norm(u)
+    s, h = np.meshgrid(np.linspace(-0.12, 0.12, 25), np.linspace(-0.15, 0.15, 31))
+    wall = mid + s.reshape(-1, 1) * u + h.reshape(-1, 1) * np.array([0, 0, 1.0])
+    backend = CostBlindBackend()
+    planner = AmpLs(shipped_vae, backend, AmpLsConfig(collision_backend="geometric", max_steps=200))
+    result = planner.plan(start, goal, wall)
+    assert result.info["backtraces"] > 0
+    backend.set_scene(wall)
+    assert not backend.check(result.q_path).any()  # no state of the returned path touches the wall
+    _check_path(result)
+
+
+def test_closed_loop_step_respects_velocity_limits_and_limits(shipped_vae):
+    planner = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(use_collision=False))
+    goal = _goal_of(Q_READY + np.array([0.8, 0.3, 0.0, 0.4, 0.0, 0.0, 0.0]))
+    q = Q_READY.copy()
+    reached = False
+    for _ in range(150):
+        out = planner.step(q, goal, dt=0.1, max_iterations=3)
+        assert np.all(np.abs(out.command - q) <= 0.5 * V_MAX * 0.1 + 1e-9)
+        assert np.all(out.command >= Q_MIN) and np.all(out.command <= Q_MAX)
+        q = out.command  # perfect tracking
+        reached = reached or out.reached
+    assert reached
+
+
+def test_bad_inputs_are_refused(shipped_vae):
+    planner = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(use_collision=False))
+    with pytest.raises(ValueError):
+        planner.plan(np.full(7, np.nan), _goal_of(Q_READY))
+    with pytest.raises(ValueError):
+        Goal(np.array([np.nan, 0, 0]), np.eye(3))
+    with pytest.raises(ValueError):
+        AmpLsConfig(lr=-1.0)
+    with pytest.raises(ValueError):
+        AmpLsConfig(collision_backend="magic")
+
+
+def test_time_parameterisation():
+    q = np.stack([Q_READY, Q_READY + 0.1, Q_READY + 0.1])
+    t = time_parameterise(q, speed_scale=0.5)
+    assert t[0] == 0 and t[1] == pytest.approx(0.1 / (0.5 * V_MAX.min())) and t[2] > t[1]
