@@ -1,0 +1,92 @@
+"""The simulated depth camera: OpenGL depth + geom segmentation -> point cloud in world, robot removed.
+
+Each capture renders the scene twice offscreen (depth, then segmentation by geom), drops the pixels that
+see the robot (or nothing), adds optional noise and dropout, unprojects into world, crops and downsamples.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from sim_bridge.camera_config import CameraConfig
+from sim_bridge.cloud import corrupt_depth, crop, pixel_rays, unproject, voxel_downsample
+from sim_bridge.mjcf import DEPTH_CAMERA
+from sim_bridge.render import make_renderer
+
+_GEOM = int(mujoco.mjtObj.mjOBJ_GEOM)
+
+
+def depth_scene_option() -> mujoco.MjvOption:
+    """Render options of the depth camera: geoms of groups 0-2 only (no sites, frames or markers)."""
+    option = mujoco.MjvOption()
+    option.sitegroup[:] = 0
+    return option
+
+
+class DepthCamera:
+    """Renders the named camera of a model into clouds.
+
+    The OpenGL context is created on the first capture, in the calling thread, which must be the thread
+    of every later capture.
+
+    Args:
+        model: the compiled scene (its camera `name` is posed per `config`).
+        robot_geoms: (ngeom,) bool mask of the robot's geoms (removed when config.remove_robot).
+        config: intrinsics, range and cloud processing.
+        rng: source of depth noise and dropout.
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        robot_geoms: np.ndarray,
+        config: CameraConfig,
+        rng: np.random.Generator,
+        name: str = DEPTH_CAMERA,
+    ):
+        self.model = model
+        self.config = config
+        self.rng = rng
+        self.camera_id = model.camera(name).id
+        self._robot_geoms = np.asarray(robot_geoms, dtype=bool)
+        self._rays = pixel_rays(config.height, config.width, config.focal_px, config.stride)
+        self._option = depth_scene_option()
+        self._renderer: mujoco.Renderer | None = None
+
+    def capture(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """Depth (H, W) float64 [m] along the optical axis and geom id (H, W) int32 (-1: no geom)."""
+        if self._renderer is None:
+            self._renderer = make_renderer(self.model, self.config.width, self.config.height)
+        r = self._renderer
+        r.enable_depth_rendering()
+        r.update_scene(data, camera=self.camera_id, scene_option=self._option)
+        depth = r.render().astype(np.float64)
+        r.enable_segmentation_rendering()
+        r.update_scene(data, camera=self.camera_id, scene_option=self._option)
+        seg = r.render()
+        r.disable_segmentation_rendering()
+        geom = np.where(seg[..., 1] == _GEOM, seg[..., 0], -1).astype(np.int32)
+        return depth, geom
+
+    def point_cloud(self, data: mujoco.MjData) -> np.ndarray:
+        """The scene as points (N, 3) float32 [m] in world, robot removed, cropped and downsampled."""
+        c = self.config
+        depth, geom = self.capture(data)
+        s = c.stride
+        depth, geom = depth[::s, ::s], geom[::s, ::s]
+        valid = (geom >= 0) & (depth >= c.min_depth) & (depth <= c.max_depth)
+        if c.remove_robot:
+            valid &= ~self._robot_geoms[np.maximum(geom, 0)]
+        depth = corrupt_depth(np.where(valid, depth, np.nan), self.rng, c.depth_noise, c.dropout)
+        position = data.cam_xpos[self.camera_id]
+        rotation = data.cam_xmat[self.camera_id].reshape(3, 3)
+        points = unproject(depth, self._rays, position, rotation)
+        points = voxel_downsample(crop(points, np.asarray(c.crop_min), np.asarray(c.crop_max)), c.voxel_size)
+        return points.astype(np.float32)
+
+    def close(self) -> None:
+        """Release the OpenGL context (call from the capturing thread)."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

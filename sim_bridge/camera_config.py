@@ -1,0 +1,91 @@
+"""CameraConfig: the simulated depth camera's intrinsics, pose and point-cloud processing.
+
+Fields map 1:1 onto the ``camera.*`` parameters of the ``sim`` node and ``config/sim.yaml``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim_bridge.params import ConfigError, check_int, check_number, check_vector
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    """A pinhole depth camera looking at the table, and how its depth image becomes a cloud.
+
+    Intrinsics: square pixels, principal point at the image centre, focal length
+    f = height / (2 tan(fovy / 2)) pixels.
+
+    Attributes:
+        width, height: [pixels] depth image size.
+        fovy: [deg] vertical field of view.
+        position: [m] (3,) optical centre in world.
+        look_at: [m] (3,) the point the optical axis goes through (the image's up is world +z).
+        min_depth, max_depth: [m] depth range; pixels outside are dropped.
+        stride: keep every stride-th pixel row and column (decimation before unprojection).
+        crop_min, crop_max: [m] (3,) axis-aligned box in world; points outside are dropped.
+        voxel_size: [m] voxel-grid downsampling (one point per occupied voxel, the mean); 0 = off.
+        depth_noise: [m] standard deviation of Gaussian depth noise at 1 m depth (scales with depth^2,
+            like a stereo camera); 0 = exact depth.
+        dropout: fraction in [0, 1) of pixels dropped at random (missing depth).
+        remove_robot: drop pixels that see the robot (segmentation by geom), as the planner expects.
+    """
+
+    width: int = 320
+    height: int = 240
+    fovy: float = 45.0
+    position: Vec3 = (1.6, 0.7, 0.9)
+    look_at: Vec3 = (0.5, 0.0, 0.2)
+    min_depth: float = 0.1
+    max_depth: float = 3.0
+    stride: int = 1
+    crop_min: Vec3 = (-0.1, -0.7, -0.02)
+    crop_max: Vec3 = (1.0, 0.7, 0.8)
+    voxel_size: float = 0.02
+    depth_noise: float = 0.0
+    dropout: float = 0.0
+    remove_robot: bool = True
+
+    def __post_init__(self) -> None:
+        check_int("width", self.width, 8, 1280)
+        check_int("height", self.height, 8, 960)
+        check_number("fovy", self.fovy, 1.0, 170.0)
+        check_vector("position", self.position, 3)
+        check_vector("look_at", self.look_at, 3)
+        axis = np.subtract(self.look_at, self.position)
+        if np.linalg.norm(axis) < 1e-3:
+            raise ConfigError("look_at: must differ from position")
+        if np.linalg.norm(np.cross(axis / np.linalg.norm(axis), [0.0, 0.0, 1.0])) < 1e-3:
+            raise ConfigError("look_at: the camera must not look straight up or down (image up is world +z)")
+        check_number("min_depth", self.min_depth, 0.0, 10.0, open_low=True)
+        check_number("max_depth", self.max_depth, self.min_depth, 50.0, open_low=True)
+        check_int("stride", self.stride, 1, 64)
+        check_vector("crop_min", self.crop_min, 3)
+        check_vector("crop_max", self.crop_max, 3)
+        if any(lo >= hi for lo, hi in zip(self.crop_min, self.crop_max, strict=True)):
+            raise ConfigError(f"crop_max: must exceed crop_min on every axis, got {self.crop_min} .. {self.crop_max}")
+        check_number("voxel_size", self.voxel_size, 0.0, 1.0)
+        check_number("depth_noise", self.depth_noise, 0.0, 1.0)
+        check_number("dropout", self.dropout, 0.0, 0.99)
+        if not isinstance(self.remove_robot, bool):
+            raise ConfigError(f"remove_robot: expected true or false, got {self.remove_robot!r}")
+
+    @property
+    def focal_px(self) -> float:
+        """Focal length [pixels] (fx = fy)."""
+        return self.height / (2.0 * math.tan(math.radians(self.fovy) / 2.0))
+
+    def rotation(self) -> np.ndarray:
+        """Camera orientation in world (3, 3): columns = image right, image up, backward (MuJoCo convention)."""
+        forward = np.subtract(self.look_at, self.position).astype(float)
+        forward /= np.linalg.norm(forward)
+        right = np.cross(forward, [0.0, 0.0, 1.0])
+        right /= np.linalg.norm(right)
+        up = np.cross(right, forward)
+        return np.stack([right, up, -forward], axis=1)

@@ -1,0 +1,62 @@
+"""Depth image -> point cloud, pure numpy: unprojection, noise and dropout, cropping, voxel downsampling."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def pixel_rays(height: int, width: int, focal_px: float, stride: int = 1) -> np.ndarray:
+    """Camera-frame directions (h', w', 3) with unit depth for the kept pixels (every stride-th).
+
+    Camera frame (MuJoCo/OpenGL): x right, y up, the camera looks along -z; row 0 is the image top.
+    A pixel at depth d [m] (distance along the optical axis) is at d * ray.
+    """
+    u = (np.arange(0, width, stride) + 0.5 - width / 2.0) / focal_px
+    v = (np.arange(0, height, stride) + 0.5 - height / 2.0) / focal_px
+    uu, vv = np.meshgrid(u, v)
+    return np.stack([uu, -vv, -np.ones_like(uu)], axis=-1)
+
+
+def corrupt_depth(depth: np.ndarray, rng: np.random.Generator, noise_at_1m: float, dropout: float) -> np.ndarray:
+    """Depth (h, w) [m] with Gaussian noise (std noise_at_1m * depth^2) and a `dropout` fraction set to NaN."""
+    out = np.array(depth, dtype=np.float64)
+    if noise_at_1m > 0.0:
+        out += rng.normal(size=out.shape) * noise_at_1m * out**2
+    if dropout > 0.0:
+        out[rng.uniform(size=out.shape) < dropout] = np.nan
+    return out
+
+
+def unproject(depth: np.ndarray, rays: np.ndarray, position: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """World points (N, 3) float64 of the pixels with finite depth.
+
+    Args:
+        depth: (h, w) [m] along the optical axis; NaN = no return.
+        rays: (h, w, 3) from :func:`pixel_rays` (same decimation as depth).
+        position: (3,) camera centre in world [m]; rotation: (3, 3) camera-to-world rotation.
+    """
+    keep = np.isfinite(depth)
+    cam = rays[keep] * depth[keep][:, None]
+    return cam @ np.asarray(rotation).T + np.asarray(position)
+
+
+def crop(points: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """The points (N, 3) inside the axis-aligned box [low, high] [m]."""
+    inside = np.all((points >= np.asarray(low)) & (points <= np.asarray(high)), axis=1)
+    return points[inside]
+
+
+def voxel_downsample(points: np.ndarray, voxel_size: float) -> np.ndarray:
+    """One point per occupied voxel of edge voxel_size [m] (the mean of its points); (M, 3), M <= N.
+
+    The output order follows the voxels' sorted integer coordinates, so it is deterministic.
+    """
+    if voxel_size <= 0.0 or len(points) == 0:
+        return points
+    keys = np.floor(points / voxel_size).astype(np.int64)
+    keys -= keys.min(axis=0)
+    dims = keys.max(axis=0) + 1
+    linear = (keys[:, 0] * dims[1] + keys[:, 1]) * dims[2] + keys[:, 2]
+    _, inverse, counts = np.unique(linear, return_inverse=True, return_counts=True)
+    sums = [np.bincount(inverse, weights=points[:, k], minlength=len(counts)) for k in range(3)]
+    return np.stack(sums, axis=1) / counts[:, None]

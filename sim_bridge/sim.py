@@ -1,0 +1,159 @@
+"""The simulator core: the Panda on its table in a scenario, stepped by MuJoCo. No ROS.
+
+    sim = Sim(load_scenario("tabletop", seed=0))
+    sim.set_command(q_target)          # (7,) rad, validated and clamped
+    sim.step(50)                       # 50 physics steps (0.1 s at the default 2 ms)
+    state = sim.get_state()            # time, q, dq, end-effector pose
+    cloud = sim.point_cloud()          # (N, 3) float32 in world, robot removed
+    sim.in_collision()                 # arm/hand touching an object or the table now
+
+Not thread-safe: use it from one thread (the camera's OpenGL context belongs to the capturing thread).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from sim_bridge.camera import DepthCamera
+from sim_bridge.command import CommandResult, JointCommand
+from sim_bridge.mjcf import TCP_SITE, build_scene
+from sim_bridge.scenario import Scenario
+from sim_bridge.sim_config import SimConfig
+
+
+@dataclass(frozen=True)
+class SimState:
+    """The robot's state at one instant.
+
+    Attributes:
+        time: [s] simulated time since the last reset.
+        q: (7,) [rad] joint positions; dq: (7,) [rad/s] joint velocities.
+        setpoint: (7,) [rad] the actuators' current position setpoint.
+        tcp_position: (3,) [m] panda_hand_tcp in world; tcp_quaternion_xyzw: (4,).
+    """
+
+    time: float
+    q: np.ndarray
+    dq: np.ndarray
+    setpoint: np.ndarray
+    tcp_position: np.ndarray
+    tcp_quaternion_xyzw: np.ndarray
+
+
+class Sim:
+    """MuJoCo simulation of one scenario.
+
+    Args:
+        scenario: the scene to build.
+        config: settings (the camera, command interface, timestep, initial configuration, seed).
+    """
+
+    def __init__(self, scenario: Scenario, config: SimConfig | None = None):
+        self.config = config or SimConfig()
+        self._camera: DepthCamera | None = None
+        self.reset(scenario)
+
+    # ------------------------------------------------------------------ lifecycle
+    def reset(self, scenario: Scenario | None = None, seed: int | None = None) -> None:
+        """Rebuild the scene (of `scenario`, or the current one) and put the arm at config.initial_q.
+
+        `seed` seeds the camera noise (default: config.seed; -1 or None in both: fresh entropy).
+        """
+        self.scenario = scenario if scenario is not None else self.scenario
+        scene = build_scene(self.scenario, self.config.camera)
+        self.model = scene.model
+        self.model.opt.timestep = self.config.timestep
+        self._robot_geoms = scene.robot_geoms
+        self._moving = scene.moving
+        self.data = mujoco.MjData(self.model)
+        q0 = np.asarray(self.config.initial_q, dtype=float)
+        self.data.qpos[:7] = q0
+        self.data.ctrl[:7] = q0
+        self.command = JointCommand(
+            q0, self.config.command_period, self.config.command_timeout, self.config.velocity_scale
+        )
+        self._tcp = self.model.site(TCP_SITE).id
+        self._place_moving_objects()
+        mujoco.mj_forward(self.model, self.data)
+        self._touched = self.in_collision()
+        if self._camera is not None:
+            self._camera.close()
+        seed = self.config.seed if seed is None else seed
+        rng = np.random.default_rng(None if seed is None or seed < 0 else seed)
+        self._camera = DepthCamera(self.model, self._robot_geoms, self.config.camera, rng)
+
+    def close(self) -> None:
+        """Release the camera's OpenGL context."""
+        if self._camera is not None:
+            self._camera.close()
+            self._camera = None
+
+    # ------------------------------------------------------------------ commands and stepping
+    def set_command(self, q: np.ndarray) -> CommandResult:
+        """New joint position target q (7,) [rad]: NaN/inf refused, out-of-limit joints clamped."""
+        return self.command.set(q, self.data.time)
+
+    def step(self, n: int = 1) -> None:
+        """Advance n physics steps: setpoint, moving objects, dynamics; contacts are latched for
+        :meth:`collided_since_last_check`."""
+        dt = self.model.opt.timestep
+        for _ in range(n):
+            self.data.ctrl[:7] = self.command.advance(self.data.time, dt)
+            mujoco.mj_step(self.model, self.data)
+            self._place_moving_objects()
+            if not self._touched and self.data.ncon:
+                self._touched = self.in_collision()
+
+    def _place_moving_objects(self) -> None:
+        for obj, mocap_id in self._moving:
+            self.data.mocap_pos[mocap_id] = obj.position_at(self.data.time)
+
+    # ------------------------------------------------------------------ observations
+    def get_state(self) -> SimState:
+        """Joint state, setpoint and end-effector pose now."""
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, self.data.site_xmat[self._tcp])
+        return SimState(
+            time=float(self.data.time),
+            q=self.data.qpos[:7].copy(),
+            dq=self.data.qvel[:7].copy(),
+            setpoint=self.command.setpoint.copy(),
+            tcp_position=self.data.site_xpos[self._tcp].copy(),
+            tcp_quaternion_xyzw=np.r_[quat[1:], quat[0]],
+        )
+
+    def point_cloud(self) -> np.ndarray:
+        """Depth-camera cloud (N, 3) float32 [m] in world, robot points removed (see CameraConfig)."""
+        return self._camera.point_cloud(self.data)
+
+    def target_pose(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The scenario target now: position (3,) [m] and quaternion_xyzw (4,), or None."""
+        return self.scenario.target_pose_at(self.data.time)
+
+    def contacts(self) -> list[tuple[str, str]]:
+        """(robot geom, scene geom) names of every current contact between the arm and the scene."""
+        pairs = []
+        for c in self.data.contact[: self.data.ncon]:
+            g1, g2 = int(c.geom1), int(c.geom2)
+            r1, r2 = self._robot_geoms[g1], self._robot_geoms[g2]
+            if r1 != r2:
+                robot, other = (g1, g2) if r1 else (g2, g1)
+                pairs.append((self.model.geom(robot).name, self.model.geom(other).name))
+        return pairs
+
+    def in_collision(self) -> bool:
+        """True if the arm or hand touches any scene object or the table now."""
+        return bool(self.contacts())
+
+    def collided_since_last_check(self) -> bool:
+        """True if the arm touched the scene at any step since the previous call (then clears the latch)."""
+        touched = self._touched or self.in_collision()
+        self._touched = False
+        return touched
+
+    def warnings(self) -> dict[str, int]:
+        """MuJoCo warnings raised since the reset: {name: count} (empty when healthy)."""
+        return {mujoco.mjtWarning(i).name: int(w.number) for i, w in enumerate(self.data.warning) if w.number > 0}
