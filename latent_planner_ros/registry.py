@@ -9,6 +9,7 @@ NODES = {
     "robot_info": "latent_planner_ros.nodes.robot_info:main",
     "scene_encoder": "latent_planner_ros.nodes.scene_encoder:main",
     "sim": "sim_bridge.node:main",
+    "planner": "latent_planner_ros.nodes.planner:main",
 }
 
 TRAIN = {

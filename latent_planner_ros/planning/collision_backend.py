@@ -15,8 +15,9 @@ import torch
 class CollisionBackend(Protocol):
     name: str
 
-    def set_scene(self, cloud: np.ndarray) -> None:
-        """Prepare for a new observation: cloud (N, 3) [m] in `world`, robot points removed."""
+    def set_scene(self, scene) -> None:
+        """Prepare for a new observation: a point cloud (N, 3) [m] in `world` (robot points removed) for
+        geometric backends, a scene embedding for the learned one."""
         ...
 
     def p_collision(self, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
@@ -33,7 +34,7 @@ class NoCollision:
 
     name = "none"
 
-    def set_scene(self, cloud: np.ndarray) -> None:
+    def set_scene(self, scene) -> None:
         pass
 
     def p_collision(self, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:

@@ -1,0 +1,246 @@
+"""planner node: AMP-LS closed-loop joint targets at 10 Hz and one-shot plans on a service.
+
+Subscribes joint_states, goal_pose, scene_embedding (learned backend) and camera/points (geometric
+backend, and the goal-inside-obstacle check). Publishes joint_command (when enabled), ~/trajectory,
+~/markers, ~/status. Services ~/plan (nav_msgs/GetPlan) and ~/enable (std_srvs/SetBool).
+Parameters: PlannerNodeConfig (config/planner.yaml), validated; a bad value is refused with a reason.
+
+    python -m latent_planner_ros run planner [--ros-args --params-file config/planner.yaml]
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Path
+from nav_msgs.srv import GetPlan
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.executors import ExternalShutdownException
+from rclpy.logging import get_logger
+from rclpy.node import Node
+from sensor_msgs.msg import JointState, PointCloud2
+from std_srvs.srv import SetBool
+from trajectory_msgs.msg import JointTrajectory
+from visualization_msgs.msg import MarkerArray
+
+from latent_planner_ros.models.checkpoint import CheckpointError
+from latent_planner_ros.models.vae_io import load_vae
+from latent_planner_ros.nodes.markers import path_markers
+from latent_planner_ros.nodes.planner_config import PlannerNodeConfig
+from latent_planner_ros.planning.amp_ls import AmpLs
+from latent_planner_ros.planning.backends import make_backend
+from latent_planner_ros.planning.closed_loop import ClosedLoopController, TickOutcome
+from latent_planner_ros.planning.goal import Goal
+from msg_adapters import (
+    AdapterError,
+    cloud_to_xyz,
+    ee_path_to_path,
+    joint_path_to_trajectory,
+    joint_state_to_q,
+    pose_stamped_to_target,
+    q_to_joint_state,
+)
+from sim_bridge.params import ConfigError, from_params, to_params
+
+
+class PlannerNode(Node):
+    def __init__(self):
+        super().__init__("planner")
+        names = to_params(PlannerNodeConfig())
+        for name, value in names.items():
+            self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
+        self.config = from_params(PlannerNodeConfig, {n: self.get_parameter(n).value for n in names})
+        self.vae, _ = load_vae(self.config.vae_checkpoint or None)
+        self.controller = self._make_controller(self.config)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._last_error = ""
+        self._last_outcome = TickOutcome(None, "starting", "starting")
+        self._cloud_msg: PointCloud2 | None = None
+
+        self.pub_command = self.create_publisher(JointState, "joint_command", 10)
+        self.pub_traj = self.create_publisher(JointTrajectory, "~/trajectory", 10)
+        self.pub_markers = self.create_publisher(MarkerArray, "~/markers", 10)
+        self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
+        self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
+        self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10)
+        self.create_subscription(PointCloud2, "camera/points", self._on_cloud, 2)
+        if self.config.amp_ls.collision_backend == "learned":
+            self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2)
+        self.create_service(GetPlan, "~/plan", self._on_plan)
+        self.create_service(SetBool, "~/enable", self._on_enable)
+        self.create_timer(1.0 / self.config.closed_loop.rate_hz, self._on_tick)
+        self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)
+        self.get_logger().info(
+            f"AMP-LS ready: backend {self.config.amp_ls.collision_backend}, "
+            f"{self.config.closed_loop.rate_hz:.0f} Hz, enabled={self.config.enabled}"
+        )
+
+    def _make_controller(self, config: PlannerNodeConfig) -> ClosedLoopController:
+        backend = make_backend(config.amp_ls.collision_backend, config.collision_checkpoint)
+        controller = ClosedLoopController(AmpLs(self.vae, backend, config.amp_ls), config.closed_loop)
+        controller.set_enabled(config.enabled)
+        return controller
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _error(self, text: str) -> None:
+        self._last_error = text
+        self.get_logger().warning(text, throttle_duration_sec=1.0)
+
+    # -- parameters ------------------------------------------------------------------------------
+    def _on_set_parameters(self, params) -> SetParametersResult:
+        try:
+            config = from_params(PlannerNodeConfig, {p.name: p.value for p in params}, base=self.config)
+            controller = self._make_controller(config)
+        except (ConfigError, ValueError, TypeError, CheckpointError) as err:
+            return SetParametersResult(successful=False, reason=str(err))
+        goal = self.controller.goal
+        self.config, self.controller = config, controller
+        if goal is not None:
+            self.controller.set_goal(goal, self._now())
+        return SetParametersResult(successful=True)
+
+    # -- inputs -------------------------------------------------------------------------------------
+    def _on_joint_states(self, msg: JointState) -> None:
+        try:
+            q, _ = joint_state_to_q(msg)
+        except AdapterError as err:
+            self._error(f"joint_states refused: {err}")
+            return
+        self.controller.set_joint_state(q, self._now())
+
+    def _on_cloud(self, msg: PointCloud2) -> None:
+        self._cloud_msg = msg
+        if self.config.amp_ls.collision_backend == "geometric":
+            try:
+                cloud = cloud_to_xyz(msg)
+            except AdapterError as err:
+                self._error(f"camera/points refused: {err}")
+                return
+            self.controller.set_scene(cloud, self._now(), cloud=cloud)
+
+    def _on_embedding(self, msg: PointCloud2) -> None:
+        try:
+            embedding = self.controller.planner.backend.embedding_from_msg(msg)
+        except (AdapterError, ValueError) as err:
+            self._error(f"scene_embedding refused: {err}")
+            return
+        self.controller.set_scene(embedding, self._now())
+
+    def _goal_from(self, msg: PoseStamped, tolerance: float = 0.0) -> Goal:
+        target = pose_stamped_to_target(msg)
+        cfg = self.config.amp_ls
+        pos_tol = tolerance if tolerance > 0 else cfg.pos_tol
+        return Goal(target.position, target.rotation, pos_tol=pos_tol, ori_tol=cfg.ori_tol)
+
+    def _refresh_cloud(self) -> None:
+        """Hand the latest raw cloud to the goal checks (converted only when a goal arrives)."""
+        if self._cloud_msg is not None and self.config.amp_ls.collision_backend != "geometric":
+            try:
+                self.controller.set_cloud(cloud_to_xyz(self._cloud_msg))
+            except AdapterError:
+                pass
+
+    def _on_goal(self, msg: PoseStamped) -> None:
+        try:
+            goal = self._goal_from(msg)
+        except (AdapterError, ValueError) as err:
+            self._error(f"goal_pose refused: {err}")
+            return
+        self._refresh_cloud()
+        accepted, reason = self.controller.set_goal(goal, self._now())
+        if not accepted:
+            self._error(reason)
+
+    # -- control ------------------------------------------------------------------------------------
+    def _on_tick(self) -> None:
+        outcome = self.controller.tick(self._now())
+        self._last_outcome = outcome
+        if outcome.command is not None:
+            self.pub_command.publish(q_to_joint_state(outcome.command, stamp=self.get_clock().now().to_msg()))
+
+    def _on_enable(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        self.controller.set_enabled(bool(request.data))
+        response.success, response.message = True, "enabled" if request.data else "disabled"
+        return response
+
+    def _on_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
+        response.plan = Path()
+        response.plan.header.frame_id = "world"
+        response.plan.header.stamp = self.get_clock().now().to_msg()
+        q = self.controller.fresh_joint_state(self._now())
+        if q is None:
+            self._error("plan refused: no fresh joint states")
+            return response
+        try:
+            goal = self._goal_from(request.goal, float(request.tolerance))
+        except (AdapterError, ValueError) as err:
+            self._error(f"plan refused: {err}")
+            return response
+        self._refresh_cloud()
+        ok, reason = self.controller.check_goal(goal)
+        if not ok:
+            self._error(f"plan {reason}")
+            return response
+        planner = self.controller.planner
+        scene = self.controller.scene if planner.config.use_collision else None
+        if planner.config.use_collision and scene is None:
+            self._error("plan refused: no scene received yet")
+            return response
+        t0 = time.perf_counter()
+        result = planner.plan(q, goal, scene)
+        self.get_logger().info(
+            f"plan: {'success' if result.success else 'failure'} ({result.reason}) in {time.perf_counter() - t0:.3f} s, "
+            f"{len(result.q_path)} states, error {result.final_pos_err_m * 1000:.1f} mm"
+        )
+        if not result.success:
+            self._error(f"plan failed: {result.reason} (error {result.final_pos_err_m * 1000:.0f} mm)")
+            return response
+        stamp = response.plan.header.stamp
+        response.plan = ee_path_to_path(result.ee_positions, result.ee_quaternions, frame_id="world", stamp=stamp)
+        self.pub_traj.publish(joint_path_to_trajectory(result.q_path, result.times, stamp=stamp))
+        self.pub_markers.publish(path_markers(result.ee_positions, goal.position, stamp))
+        return response
+
+    def _publish_status(self) -> None:
+        o = self._last_outcome
+        status = DiagnosticStatus(level=bytes([o.level]), name="planner", message=f"{o.state}: {o.reason}")
+        status.hardware_id = "amp_ls"
+        values = {"state": o.state, "last_error": self._last_error, **o.values}
+        status.values = [
+            KeyValue(key=k, value=f"{v:.6g}" if isinstance(v, float) else str(v)) for k, v in values.items()
+        ]
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.pub_status.publish(msg)
+
+
+def main() -> int:
+    rclpy.init(args=sys.argv)
+    node = None
+    try:
+        try:
+            node = PlannerNode()
+        except (CheckpointError, ConfigError, ValueError) as err:
+            get_logger("planner").error(f"cannot start: {err}")
+            return 2
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception:
+        if rclpy.ok():  # a real error; after SIGTERM/SIGINT a callback may race the shutdown: ignore that
+            raise
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

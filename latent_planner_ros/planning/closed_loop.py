@@ -1,0 +1,188 @@
+"""Closed-loop supervision around AMP-LS: fresh inputs or hold, goal checks, progress watchdog.
+
+ROS-free: the planner node feeds it converted messages with receipt times and publishes what `tick`
+returns. A tick either commands the next joint target or holds (commands the measured position) or, with
+stale joint states, commands nothing; every outcome carries a reason for the status topic.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from latent_planner_ros.planning.amp_ls import AmpLs
+from latent_planner_ros.planning.goal import Goal
+
+OK, WARN, ERROR = 0, 1, 2
+
+
+@dataclass
+class ClosedLoopConfig:
+    rate_hz: float = 10.0
+    """control rate [Hz]"""
+    stale_joint_states_s: float = 0.5
+    """joint states older than this [s] stop all commands"""
+    stale_scene_s: float = 1.0
+    """a scene older than this [s] makes the arm hold"""
+    max_iterations_per_tick: int = 3
+    """optimisation steps per tick (the first accepted step ends the tick)"""
+    no_progress_s: float = 8.0
+    """a goal whose error has not improved by progress_m within this time [s] is given up"""
+    progress_m: float = 0.005
+    """improvement [m] that counts as progress"""
+    reach_m: float = 1.05
+    """goals farther than this from the base axis origin [m] are refused as out of reach"""
+    goal_clearance_m: float = 0.01
+    """goals with an observed point closer than this [m] are refused as inside an obstacle"""
+
+    def __post_init__(self) -> None:
+        for name in ("rate_hz", "stale_joint_states_s", "stale_scene_s", "no_progress_s", "progress_m", "reach_m"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+        if not (isinstance(self.max_iterations_per_tick, int) and 1 <= self.max_iterations_per_tick <= 100):
+            raise ValueError(
+                f"max_iterations_per_tick must be an integer in [1, 100], got {self.max_iterations_per_tick!r}"
+            )
+        if not (isinstance(self.goal_clearance_m, int | float) and self.goal_clearance_m >= 0):
+            raise ValueError(f"goal_clearance_m must be >= 0, got {self.goal_clearance_m!r}")
+
+
+@dataclass
+class TickOutcome:
+    """What one control tick decided.
+
+    Attributes:
+        command: (7,) joint target to publish [rad], or None to publish nothing.
+        state: "tracking", "reached", "holding", "failed", "disabled".
+        reason: human-readable explanation.
+        level: OK, WARN or ERROR (diagnostic level).
+        values: figures for the status topic.
+    """
+
+    command: np.ndarray | None
+    state: str
+    reason: str
+    level: int = OK
+    values: dict[str, Any] = field(default_factory=dict)
+
+
+class ClosedLoopController:
+    """Feeds AMP-LS with the latest inputs at every tick; times are seconds on one clock."""
+
+    def __init__(self, planner: AmpLs, config: ClosedLoopConfig | None = None):
+        self.planner = planner
+        self.config = config or ClosedLoopConfig()
+        self.enabled = True
+        self.goal: Goal | None = None
+        self._q: np.ndarray | None = None
+        self._q_time = -np.inf
+        self._scene: Any = None
+        self._scene_time = -np.inf
+        self._cloud: np.ndarray | None = None
+        self._failed: str | None = None
+        self._best_err = np.inf
+        self._best_time = 0.0
+
+    # -- inputs ----------------------------------------------------------------------------------
+    def set_joint_state(self, q: np.ndarray, now: float) -> None:
+        self._q, self._q_time = np.asarray(q, dtype=float), now
+
+    def set_scene(self, scene: Any, now: float, cloud: np.ndarray | None = None) -> None:
+        """The scene as the planner's collision backend consumes it, and the raw cloud if known."""
+        self._scene, self._scene_time = scene, now
+        if cloud is not None:
+            self.set_cloud(cloud)
+
+    def set_cloud(self, cloud: np.ndarray) -> None:
+        """The latest raw cloud (N, 3) [m], used to refuse goals inside observed obstacles."""
+        self._cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
+
+    def check_goal(self, goal: Goal) -> tuple[bool, str]:
+        """(False, reason) for a goal out of reach or inside an observed obstacle, else (True, "")."""
+        dist = float(np.linalg.norm(goal.position - np.array([0.0, 0.0, 0.333])))
+        if dist > self.config.reach_m:
+            return (
+                False,
+                f"goal refused: {dist:.2f} m from the shoulder, beyond the reach of {self.config.reach_m:.2f} m",
+            )
+        if self._cloud is not None and len(self._cloud):
+            d = float(np.min(np.linalg.norm(self._cloud - goal.position, axis=1)))
+            if d < self.config.goal_clearance_m:
+                return False, f"goal refused: inside an observed obstacle (a point {d * 1000:.0f} mm away)"
+        return True, ""
+
+    def fresh_joint_state(self, now: float) -> np.ndarray | None:
+        """The measured q (7,) if it is fresh, else None."""
+        if self._q is None or now - self._q_time > self.config.stale_joint_states_s:
+            return None
+        return self._q.copy()
+
+    @property
+    def scene(self) -> Any:
+        return self._scene
+
+    def set_goal(self, goal: Goal, now: float) -> tuple[bool, str]:
+        """Accept or refuse a goal; returns (accepted, reason)."""
+        ok, reason = self.check_goal(goal)
+        if not ok:
+            return False, reason
+        changed = self.goal is None or np.linalg.norm(goal.position - self.goal.position) > 0.05
+        self.goal = goal
+        if changed:
+            self._failed = None
+            self._best_err, self._best_time = np.inf, now
+        return True, "goal accepted"
+
+    def set_enabled(self, enabled: bool) -> None:
+        self.enabled = enabled
+        if enabled:
+            self._failed = None
+            self.planner.reset()
+
+    # -- one tick ---------------------------------------------------------------------------------
+    def tick(self, now: float) -> TickOutcome:
+        cfg = self.config
+        if not self.enabled:
+            return TickOutcome(None, "disabled", "closed-loop tracking is disabled (call enable)")
+        if self._q is None or now - self._q_time > cfg.stale_joint_states_s:
+            age = "never received" if self._q is None else f"{now - self._q_time:.2f} s old"
+            return TickOutcome(None, "holding", f"no command: joint states {age}", ERROR)
+        hold = self._q.copy()
+        if self.goal is None:
+            return TickOutcome(hold, "holding", "holding: no goal")
+        if self._failed is not None:
+            return TickOutcome(hold, "failed", self._failed, ERROR)
+        use_scene = self.planner.config.use_collision
+        if use_scene and (self._scene is None or now - self._scene_time > cfg.stale_scene_s):
+            age = "never received" if self._scene is None else f"{now - self._scene_time:.2f} s old"
+            return TickOutcome(hold, "holding", f"holding: scene {age}", WARN)
+        t0 = time.perf_counter()
+        out = self.planner.step(
+            self._q,
+            self.goal,
+            self._scene if use_scene else None,
+            dt=1.0 / cfg.rate_hz,
+            max_iterations=cfg.max_iterations_per_tick,
+        )
+        tick_ms = (time.perf_counter() - t0) * 1000.0
+        values = {
+            "pos_err_m": out.pos_err_m,
+            "ori_err_deg": float(np.degrees(out.ori_err_rad)),
+            "p_collision": out.p_collision,
+            "tick_ms": tick_ms,
+            **out.losses,
+        }
+        if out.pos_err_m < self._best_err - cfg.progress_m:
+            self._best_err, self._best_time = out.pos_err_m, now
+        elif not out.reached and now - self._best_time > cfg.no_progress_s:
+            self._failed = (
+                f"goal not reached: no progress for {cfg.no_progress_s:.0f} s "
+                f"(best error {self._best_err * 1000:.0f} mm); holding until a new goal or enable"
+            )
+            return TickOutcome(hold, "failed", self._failed, ERROR, values)
+        state = "reached" if out.reached else "tracking"
+        return TickOutcome(out.command, state, out.reason, OK, values)
