@@ -195,7 +195,8 @@ class PlannerNode(Node):
         t0 = time.perf_counter()
         result = planner.plan(q, goal, scene)
         self.get_logger().info(
-            f"plan: {'success' if result.success else 'failure'} ({result.reason}) in {time.perf_counter() - t0:.3f} s, "
+            f"plan: {'success' if result.success else 'failure'} ({result.reason}) "
+            f"in {time.perf_counter() - t0:.3f} s, "
             f"{len(result.q_path)} states, error {result.final_pos_err_m * 1000:.1f} mm"
         )
         if not result.success:
