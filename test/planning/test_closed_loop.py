@@ -1,0 +1,72 @@
+"""Closed-loop supervision: fresh inputs or hold, refused goals, the no-progress watchdog."""
+
+import numpy as np
+
+from latent_planner_ros.planning.amp_ls import AmpLs
+from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.closed_loop import ERROR, ClosedLoopConfig, ClosedLoopController
+from latent_planner_ros.planning.geometric_backend import GeometricBackend
+from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.robot.limits import Q_READY, V_MAX
+from latent_planner_ros.robot.panda import load_panda
+
+
+def _controller(vae, **cfg):
+    planner = AmpLs(vae, GeometricBackend(), AmpLsConfig(collision_backend="geometric"))
+    return ClosedLoopController(planner, ClosedLoopConfig(**cfg))
+
+
+def _goal(dq):
+    m = load_panda().fk(Q_READY + np.asarray(dq))
+    return Goal(m.translation, m.rotation)
+
+
+def test_inputs_missing_or_stale_mean_no_command_or_hold(shipped_vae):
+    c = _controller(shipped_vae)
+    out = c.tick(0.0)
+    assert out.command is None and out.level == ERROR and "joint states never received" in out.reason
+    c.set_joint_state(Q_READY, 0.0)
+    out = c.tick(0.1)
+    assert "no goal" in out.reason and np.array_equal(out.command, Q_READY)
+    assert c.set_goal(_goal([0.5, 0, 0, 0, 0, 0, 0]), 0.1)[0]
+    out = c.tick(0.2)
+    assert "scene never received" in out.reason and np.array_equal(out.command, Q_READY)
+    c.set_scene(np.zeros((0, 3)), 0.2)
+    out = c.tick(0.3)
+    assert out.state in ("tracking", "reached") and out.command is not None
+    assert np.all(np.abs(out.command - Q_READY) <= 0.5 * V_MAX * 0.1 + 1e-9)
+    out = c.tick(2.0)  # scene 1.8 s old, joint states 2 s old
+    assert out.command is None and "joint states 2.00 s old" in out.reason
+    c.set_joint_state(Q_READY, 2.0)
+    out = c.tick(2.1)
+    assert "scene 1.90 s old" in out.reason and np.array_equal(out.command, Q_READY)
+
+
+def test_far_goals_and_goals_inside_obstacles_are_refused(shipped_vae):
+    c = _controller(shipped_vae)
+    far = Goal(np.array([3.0, 0.0, 0.5]), np.eye(3))
+    ok, reason = c.set_goal(far, 0.0)
+    assert not ok and "beyond the reach" in reason
+    inside = _goal([0.3, 0, 0, 0, 0, 0, 0])
+    c.set_scene(inside.position[None] + 0.003, 0.0, cloud=inside.position[None] + 0.003)
+    ok, reason = c.set_goal(inside, 0.0)
+    assert not ok and "inside an observed obstacle" in reason
+    assert c.goal is None
+
+
+def test_no_progress_ends_in_a_reported_failure(shipped_vae):
+    c = _controller(shipped_vae, no_progress_s=1.0)
+    goal = _goal([0.8, 0.3, 0.0, 0.4, 0.0, 0.0, 0.0])
+    c.set_joint_state(Q_READY, 0.0)
+    c.set_scene(np.zeros((0, 3)), 0.0)
+    c.set_goal(goal, 0.0)
+    now, out = 0.0, None
+    for _ in range(40):  # the arm never moves: no progress is possible after the first ticks
+        now += 0.1
+        c.set_joint_state(Q_READY, now)
+        c.set_scene(np.zeros((0, 3)), now)
+        out = c.tick(now)
+        if out.state == "failed":
+            break
+    assert out is not None and out.state == "failed" and "no progress" in out.reason
+    assert np.array_equal(out.command, Q_READY)  # holds
