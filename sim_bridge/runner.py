@@ -112,13 +112,13 @@ class Runner:
             return None
         return self._wall0 + (self.clock - self._clock0) / self.real_time_factor
 
-    def wait(self, serve: Callable[[float], None], max_lag: float = 0.5) -> float:
+    def wait(self, serve: Callable[[float], None], max_lag: float = 0.1) -> float:
         """Serve callbacks until the wall clock reaches the schedule; returns the lag [s] (> 0: behind).
 
         Args:
             serve: called with a timeout [s] (e.g. ``executor.spin_once``); called at least once (timeout 0).
             max_lag: [s] when the simulation falls further behind than this, the schedule restarts from
-                now instead of racing to catch up.
+                now instead of racing to catch up (simulated time slips; rates stay steady).
         """
         deadline = self.wall_deadline()
         if deadline is None:

@@ -59,8 +59,13 @@ def test_flat_out_and_lag_reporting(make_sim):
     assert wall.now == 100.0  # never waits
     runner.set_real_time_factor(1.0)
     runner.advance()
-    wall.now += 0.3  # a slow step: behind schedule
-    assert runner.wait(wall.serve) == pytest.approx(0.29)
+    wall.now += 0.05  # a slow step: behind schedule, caught up over the next ticks
+    assert runner.wait(wall.serve) == pytest.approx(0.04)
+    wall.now += 0.3  # too slow: the schedule restarts from now instead of racing
+    runner.advance()
+    assert runner.wait(wall.serve) == pytest.approx(0.33)
+    runner.advance()
+    assert runner.wait(wall.serve) == 0.0 and wall.now == pytest.approx(100.36)
 
 
 def test_clock_is_monotonic_across_resets(make_sim):

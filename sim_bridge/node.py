@@ -1,0 +1,227 @@
+"""The ``sim`` node: the MuJoCo Panda world on ROS 2.
+
+Publishes ``joint_states`` (100 Hz), ``/clock``, ``sim/in_collision`` (at the joint-state rate: true if the
+arm touched the scene during the period), ``camera/points`` and ``target_pose`` (12.5 Hz); subscribes
+``joint_command``; serves ``sim/reset``. Rates are in simulated time; stamps are simulated time (run
+other nodes with ``use_sim_time:=true``). Parameters: :class:`~sim_bridge.sim_config.SimConfig` (see
+``config/sim.yaml``); they take effect at the next ``sim/reset``, except ``real_time_factor`` (at once).
+
+    python -m latent_planner_ros run sim [--record out.gif | --record frames/] [--duration S] \
+        [--ros-args -p scenario:=conveyor -p real_time_factor:=0 --params-file config/sim.yaml]
+
+The single thread steps the physics, publishes, and serves callbacks while it waits for the wall clock.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import rclpy
+from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.logging import get_logger
+from rclpy.node import Node
+from rclpy.time import Time as RosTime
+from rclpy.utilities import remove_ros_args
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState, PointCloud2
+from std_msgs.msg import Bool
+from std_srvs.srv import Trigger
+
+from latent_planner_ros.robot.limits import JOINT_NAMES
+from msg_adapters import AdapterError, joint_state_to_q, q_to_joint_state, target_to_pose_stamped, xyz_to_cloud
+from sim_bridge.params import ConfigError, from_params, to_params
+from sim_bridge.render import Recorder, Snapshotter
+from sim_bridge.runner import Runner, Tick
+from sim_bridge.scenario import Scenario, ScenarioError
+from sim_bridge.scenario_files import load_scenario, parse_overrides
+from sim_bridge.sim import Sim
+from sim_bridge.sim_config import SimConfig
+
+
+def _stamp(seconds: float):
+    return RosTime(nanoseconds=round(seconds * 1e9)).to_msg()
+
+
+def scenario_of(config: SimConfig) -> Scenario:
+    """The scenario the config names (ScenarioError naming the file and field if it is bad)."""
+    seed = None if config.seed < 0 else config.seed
+    return load_scenario(config.scenario, seed=seed, overrides=parse_overrides(config.scenario_overrides))
+
+
+class SimNode(Node):
+    """Wires a :class:`Sim` and its :class:`Runner` to topics, a service and parameters.
+
+    Raises ConfigError or ScenarioError from the constructor when the initial parameters are bad.
+    """
+
+    def __init__(self, frame_rate: float = 0.0, **kwargs):
+        super().__init__("sim", **kwargs)
+        names = to_params(SimConfig())
+        for name, value in names.items():
+            self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
+        self.config = from_params(SimConfig, {n: self.get_parameter(n).value for n in names})
+        self.sim = Sim(scenario_of(self.config), self.config)
+        self.runner = Runner(self.sim, frame_rate=frame_rate)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+
+        self._pub_joints = self.create_publisher(JointState, "joint_states", 10)
+        self._pub_clock = self.create_publisher(Clock, "/clock", 10)
+        self._pub_collision = self.create_publisher(Bool, "sim/in_collision", 10)
+        self._pub_cloud = self.create_publisher(PointCloud2, "camera/points", 2)
+        self._pub_target = self.create_publisher(PoseStamped, "target_pose", 10)
+        self.create_subscription(JointState, "joint_command", self._on_command, 10)
+        self.create_service(Trigger, "sim/reset", self._on_reset)
+        self._was_colliding = False
+        self._warned: set[str] = set()
+        self._describe()
+
+    def _describe(self) -> None:
+        s = self.sim.scenario
+        self.get_logger().info(
+            f"scenario {s.name!r}: {len(s.objects)} objects, target {'yes' if s.target else 'no'}; {s.description}"
+        )
+
+    # ------------------------------------------------------------------ callbacks
+    def _on_set_parameters(self, params) -> SetParametersResult:
+        try:
+            config = from_params(SimConfig, {p.name: p.value for p in params}, base=self.config)
+            if any(p.name in ("scenario", "scenario_overrides") for p in params):
+                scenario_of(config)  # refuse a scenario that would not load
+        except (ConfigError, ScenarioError) as err:
+            return SetParametersResult(successful=False, reason=str(err))
+        if config.real_time_factor != self.config.real_time_factor:
+            self.runner.set_real_time_factor(config.real_time_factor)
+        self.config = config
+        return SetParametersResult(successful=True)
+
+    def _on_command(self, msg: JointState) -> None:
+        unknown = sorted(set(msg.name) - set(JOINT_NAMES))
+        if unknown:
+            self.get_logger().warning(f"joint_command refused: unknown joints {unknown}", throttle_duration_sec=1.0)
+            return
+        try:
+            q, _ = joint_state_to_q(msg)
+        except AdapterError as err:
+            self.get_logger().warning(f"joint_command refused: {err}", throttle_duration_sec=1.0)
+            return
+        result = self.sim.set_command(q)
+        if not result.accepted:
+            self.get_logger().warning(f"joint_command refused: {result.reason}", throttle_duration_sec=1.0)
+        elif result.clamped:
+            self.get_logger().warning(f"joint_command {result.reason}", throttle_duration_sec=1.0)
+
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        try:
+            scenario = scenario_of(self.config)
+            self.sim.config = self.config
+            self.runner.reset(scenario)
+        except (ScenarioError, ConfigError) as err:
+            response.success, response.message = False, str(err)
+            return response
+        self._was_colliding = False
+        self._describe()
+        response.success, response.message = True, f"reset to scenario {scenario.name!r}: {scenario.description}"
+        return response
+
+    # ------------------------------------------------------------------ publishing
+    def publish(self, tick: Tick) -> None:
+        """Publish what is due after one runner tick."""
+        stamp = _stamp(tick.clock)
+        state = self.sim.get_state()
+        self._pub_clock.publish(Clock(clock=stamp))
+        self._pub_joints.publish(q_to_joint_state(state.q, state.dq, stamp=stamp))
+        self._pub_collision.publish(Bool(data=tick.collided))
+        if tick.collided and not self._was_colliding:
+            self.get_logger().info(f"arm touches the scene: {self.sim.contacts()}")
+        self._was_colliding = tick.collided
+        if tick.cloud_due:
+            points = self.sim.point_cloud()
+            self._pub_cloud.publish(xyz_to_cloud(points, frame_id=self.config.frame_id, stamp=stamp))
+            target = self.sim.target_pose()
+            if target is not None:
+                self._pub_target.publish(target_to_pose_stamped(*target, frame_id=self.config.frame_id, stamp=stamp))
+            self._check_warnings()
+
+    def _check_warnings(self) -> None:
+        for name, count in self.sim.warnings().items():
+            if name not in self._warned:
+                self._warned.add(name)
+                self.get_logger().warning(f"MuJoCo warning {name} ({count} times since reset)")
+
+    def close(self) -> None:
+        self.sim.close()
+
+
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    """The node's own arguments (ROS arguments already removed)."""
+    parser = argparse.ArgumentParser(prog="sim", description="MuJoCo Panda simulator node")
+    parser.add_argument("--record", type=Path, help="write pictures: out.gif, or a directory for PNG frames")
+    parser.add_argument("--record-fps", type=float, default=10.0, help="pictures per simulated second")
+    parser.add_argument("--record-size", default="480x360", help="picture size WIDTHxHEIGHT")
+    parser.add_argument("--record-camera", default="overview", help="camera of the pictures (overview, depth_camera)")
+    parser.add_argument("--duration", type=float, default=0.0, help="stop after this many simulated seconds")
+    args = parser.parse_args(argv)
+    try:
+        width, height = (int(v) for v in args.record_size.lower().split("x"))
+    except ValueError:
+        parser.error(f"--record-size: expected WIDTHxHEIGHT, got {args.record_size!r}")
+    if not (8 <= width <= 1280 and 8 <= height <= 960) or args.record_fps <= 0:
+        parser.error("--record-size must be within 1280x960 and --record-fps positive")
+    args.record_width, args.record_height = width, height
+    return args
+
+
+def main() -> int:
+    args = parse_args(remove_ros_args(sys.argv)[1:])
+    rclpy.init(args=sys.argv)
+    node = None
+    recorder = snapshotter = None
+    try:
+        try:
+            node = SimNode(frame_rate=args.record_fps if args.record else 0.0)
+        except (ConfigError, ScenarioError) as err:
+            get_logger("sim").error(f"cannot start: {err}")
+            return 2
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        if args.record:
+            recorder = Recorder(args.record, fps=args.record_fps)
+        while rclpy.ok():
+            tick = node.runner.advance()
+            node.publish(tick)
+            if recorder is not None and tick.frame_due:
+                if snapshotter is None or snapshotter.model is not node.sim.model:  # new scene after a reset
+                    if snapshotter is not None:
+                        snapshotter.close()
+                    snapshotter = Snapshotter(node.sim.model, args.record_camera, args.record_width, args.record_height)
+                recorder.add(snapshotter.render(node.sim.data))
+            if args.duration > 0 and tick.clock >= args.duration:
+                break
+            lag = node.runner.wait(lambda timeout: executor.spin_once(timeout_sec=timeout))
+            if lag > 0.1:
+                node.get_logger().warning(
+                    f"cannot keep the real-time factor (behind by {lag:.2f} s); simulated time slips",
+                    throttle_duration_sec=10.0,
+                )
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception:
+        if rclpy.ok():  # a publish racing the Ctrl-C shutdown fails with an RCLError: not an error
+            raise
+    finally:
+        if recorder is not None:
+            path = recorder.close()
+            print(f"wrote {recorder.count} pictures to {path}", file=sys.stderr)
+        if node is not None:
+            node.close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
