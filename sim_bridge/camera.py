@@ -1,7 +1,7 @@
 """The simulated depth camera: OpenGL depth + geom segmentation -> point cloud in world, robot removed.
 
-Each capture renders the scene twice offscreen (depth, then segmentation by geom), drops the pixels that
-see the robot (or nothing), adds optional noise and dropout, unprojects into world, crops and downsamples.
+Each capture renders the scene offscreen once (depth and geom id per pixel), drops the pixels that see
+the robot (or nothing), adds optional noise and dropout, unprojects into world, crops and downsamples.
 """
 
 from __future__ import annotations
@@ -11,10 +11,8 @@ import numpy as np
 
 from sim_bridge.camera_config import CameraConfig
 from sim_bridge.cloud import corrupt_depth, crop, pixel_rays, unproject, voxel_downsample
+from sim_bridge.depth_render import DepthSegRenderer
 from sim_bridge.mjcf import DEPTH_CAMERA
-from sim_bridge.render import make_renderer
-
-_GEOM = int(mujoco.mjtObj.mjOBJ_GEOM)
 
 
 def depth_scene_option() -> mujoco.MjvOption:
@@ -52,22 +50,14 @@ class DepthCamera:
         self._robot_geoms = np.asarray(robot_geoms, dtype=bool)
         self._rays = pixel_rays(config.height, config.width, config.focal_px, config.stride)
         self._option = depth_scene_option()
-        self._renderer: mujoco.Renderer | None = None
+        self._renderer: DepthSegRenderer | None = None
 
     def capture(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """Depth (H, W) float64 [m] along the optical axis and geom id (H, W) int32 (-1: no geom)."""
         if self._renderer is None:
-            self._renderer = make_renderer(self.model, self.config.width, self.config.height)
-        r = self._renderer
-        r.enable_depth_rendering()
-        r.update_scene(data, camera=self.camera_id, scene_option=self._option)
-        depth = r.render().astype(np.float64)
-        r.enable_segmentation_rendering()
-        r.update_scene(data, camera=self.camera_id, scene_option=self._option)
-        seg = r.render()
-        r.disable_segmentation_rendering()
-        geom = np.where(seg[..., 1] == _GEOM, seg[..., 0], -1).astype(np.int32)
-        return depth, geom
+            c = self.config
+            self._renderer = DepthSegRenderer(self.model, self.camera_id, c.width, c.height, self._option)
+        return self._renderer.render(data)
 
     def point_cloud(self, data: mujoco.MjData) -> np.ndarray:
         """The scene as points (N, 3) float32 [m] in world, robot removed, cropped and downsampled."""

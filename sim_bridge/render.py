@@ -14,27 +14,43 @@ import numpy as np
 
 from sim_bridge.mjcf import TARGET_SITE_GROUP
 
-_OPEN_RENDERERS: weakref.WeakSet = weakref.WeakSet()
+_OPEN: weakref.WeakSet = weakref.WeakSet()
+_GL_HELP = (
+    "headless machines need MUJOCO_GL=osmesa (apt-get install libosmesa6) or MUJOCO_GL=egl, "
+    "set before mujoco is first imported"
+)
+
+
+def track_for_exit(renderer) -> None:
+    """Close `renderer` (anything with close()) at interpreter exit if it is still open then.
+
+    A renderer left to the garbage collector at exit fails noisily inside its OpenGL library.
+    """
+    _OPEN.add(renderer)
 
 
 @atexit.register
 def _close_open_renderers() -> None:
-    # A Renderer left to the garbage collector at interpreter exit fails noisily in its __del__.
-    for renderer in list(_OPEN_RENDERERS):
+    for renderer in list(_OPEN):
         renderer.close()
+
+
+def make_gl_context(width: int, height: int):
+    """An offscreen OpenGL context of MuJoCo's configured backend; RuntimeError explaining the setup if none."""
+    try:
+        return mujoco.GLContext(width, height)
+    except Exception as err:  # the backends raise assorted types (AttributeError, ImportError, GLError)
+        raise RuntimeError(f"cannot create an offscreen OpenGL context ({err}); {_GL_HELP}") from err
 
 
 def make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
     """A mujoco.Renderer; RuntimeError explaining the OpenGL setup if no context can be made."""
     try:
         renderer = mujoco.Renderer(model, height=height, width=width)
-        _OPEN_RENDERERS.add(renderer)
-        return renderer
     except Exception as err:  # the backends raise assorted types (ImportError, RuntimeError, GLError)
-        raise RuntimeError(
-            f"cannot create an offscreen OpenGL context ({err}); headless machines need MUJOCO_GL=osmesa "
-            "(apt-get install libosmesa6) or MUJOCO_GL=egl, set before mujoco is first imported"
-        ) from err
+        raise RuntimeError(f"cannot create an offscreen OpenGL context ({err}); {_GL_HELP}") from err
+    track_for_exit(renderer)
+    return renderer
 
 
 def picture_option() -> mujoco.MjvOption:
