@@ -6,11 +6,13 @@ Publishes:
     joint_states (sensor_msgs/JointState): Q_READY [rad] for panda_joint1..7 at 10 Hz.
 
 Usage:
-    python -m latent_planner_ros run robot_info [--once] [--ros-args ...]
-    ros2 run latent_planner_ros robot_info [--once]
+    python -m latent_planner_ros run robot_info [--once [--wait S]] [--ros-args ... [--]]
+    ros2 run latent_planner_ros robot_info [--once [--wait S]]
 
---once publishes, waits up to ~2 s for subscribers to receive the messages, then exits 0.
+--once publishes, waits up to ~2 s (--wait) for subscribers to receive the messages, then exits 0.
 Otherwise the node runs until Ctrl-C.
+DDS discovery between processes takes 0.1-4 s here: a listener that must not miss the --once
+messages should already run and the wait be longer (e.g. --wait 10; it ends as soon as they are delivered).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import time
 import rclpy
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.utilities import remove_ros_args
@@ -36,7 +39,7 @@ RATE_HZ = 10.0
 """joint_states publishing rate [Hz]."""
 
 ONCE_WAIT_S = 2.0
-"""With --once: how long to wait for subscribers to receive the messages [s]."""
+"""With --once: default longest wait for subscribers to receive the messages [s]."""
 
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
 
@@ -60,28 +63,54 @@ class RobotInfoNode(Node):
 
 
 def _parse_args(argv: list[str]) -> argparse.Namespace:
+    """Our own options from the full command line (program name first, ROS arguments anywhere)."""
+    try:
+        argv = remove_ros_args(argv)[1:]
+    except rclpy_implementation.UnknownROSArgsError as exc:
+        print(f"robot_info: error: unknown ROS arguments {exc} (end ROS arguments with --)", file=sys.stderr)
+        raise SystemExit(2) from None
+    except rclpy_implementation.RCLInvalidROSArgsError as exc:
+        print(f"robot_info: error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
     parser = argparse.ArgumentParser(
         prog="robot_info", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("--once", action="store_true", help="publish once, wait up to ~2 s for delivery, exit")
+    parser.add_argument("--once", action="store_true", help="publish, wait for delivery (see --wait), exit 0")
+    parser.add_argument(
+        "--wait",
+        type=float,
+        default=ONCE_WAIT_S,
+        metavar="S",
+        help=f"with --once: longest wait [s] for subscribers to match and acknowledge (default {ONCE_WAIT_S:g})",
+    )
     return parser.parse_args(argv)
 
 
-def _run_once(node: RobotInfoNode, executor: SingleThreadedExecutor) -> None:
-    """Keep publishing until both topics have a subscriber (or the wait ends), then wait for delivery."""
-    deadline = time.monotonic() + ONCE_WAIT_S
+def _spin_for(executor: SingleThreadedExecutor, seconds: float) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=min(0.05, max(end - time.monotonic(), 0.0)))
+
+
+def _run_once(node: RobotInfoNode, executor: SingleThreadedExecutor, wait_s: float) -> None:
+    """Keep publishing until both topics have a subscriber (at most wait_s [s]), then let the messages go out.
+
+    The latched description is waited for until acknowledged. joint_states is a stream whose reliable
+    delivery is acknowledged only at the next DDS heartbeat (~3 s with Fast DDS), so after a last sample
+    the node spins a moment instead.
+    """
+    deadline = time.monotonic() + wait_s
     while time.monotonic() < deadline and not node.has_subscribers():
         executor.spin_once(timeout_sec=0.05)
     node.publish_joint_state()  # one more, now that any subscriber has been matched
-    remaining = max(deadline - time.monotonic(), 0.2)
-    for pub in (node.description_pub, node.joint_state_pub):
-        if pub.get_subscription_count() > 0:
-            pub.wait_for_all_acked(Duration(seconds=remaining))
+    if node.description_pub.get_subscription_count() > 0:
+        node.description_pub.wait_for_all_acked(Duration(seconds=max(deadline - time.monotonic(), 0.2)))
+    _spin_for(executor, 0.2)
 
 
 def main() -> int:
-    """Entry point (reads sys.argv, ROS arguments included). Returns the exit code: 0, or 2 on bad arguments."""
-    args = _parse_args(remove_ros_args(sys.argv)[1:])
+    """Entry point (reads sys.argv, ROS arguments included). Returns 0; exits 2 on bad arguments."""
+    args = _parse_args(sys.argv)
     node = None
     try:
         description = robot_summary()
@@ -89,9 +118,12 @@ def main() -> int:
         node = RobotInfoNode(description)
         executor = SingleThreadedExecutor()
         executor.add_node(node)
-        node.get_logger().info(f"publishing robot_description and joint_states (ready pose) at {RATE_HZ:g} Hz")
+        node.get_logger().info(
+            f"publishing {node.description_pub.topic_name} and {node.joint_state_pub.topic_name} "
+            f"(ready pose, {RATE_HZ:g} Hz)"
+        )
         if args.once:
-            _run_once(node, executor)
+            _run_once(node, executor, args.wait)
         else:
             executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -115,7 +115,8 @@ def assert_ready_pose(msg: JointState) -> None:
 def test_once_publishes_description_and_ready_pose(domain_id, probe):
     probe.subscribe_description()
     probe.subscribe_joint_states()
-    proc = start_robot_info(domain_id, "--once")
+    # Discovery between processes can take a few seconds under load: allow more than the default 2 s.
+    proc = start_robot_info(domain_id, "--once", "--wait", "15")
     try:
         received = probe.spin_until(lambda: bool(probe.descriptions and probe.joint_states))
     finally:
@@ -146,13 +147,31 @@ def test_spins_at_10hz_latches_description_and_stops_on_ctrl_c(domain_id, probe)
     assert 0.05 < float(np.median(np.diff(stamps))) < 0.2  # 10 Hz
 
 
-def test_help_lists_once():
-    proc = subprocess.run(
-        [sys.executable, "-m", "latent_planner_ros", "run", "robot_info", "--help"],
+def _run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "latent_planner_ros", "run", "robot_info", *args],
         cwd=REPO,
         capture_output=True,
         text=True,
         timeout=TIMEOUT_S,
     )
+
+
+def test_help_lists_options():
+    proc = _run_cli("--help")
     assert proc.returncode == 0, proc.stderr
-    assert "--once" in proc.stdout
+    assert "--once" in proc.stdout and "--wait" in proc.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--bogus"], "unrecognized arguments: --bogus"),
+        (["--once", "--ros-args", "-r", "joint_states:=js", "--wait", "1"], "unknown ROS arguments"),
+        (["--once", "--ros-args", "-r", "a:=b:=c"], "Couldn't parse remap rule"),
+    ],
+)
+def test_bad_arguments_exit_2_without_traceback(args, message):
+    proc = _run_cli(*args)
+    assert proc.returncode == 2, proc.stderr
+    assert message in proc.stderr and "Traceback" not in proc.stderr
