@@ -5,10 +5,13 @@ from __future__ import annotations
 import json
 import os
 import random
+import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
+import imageio.v3 as iio
 import pytest
 import yaml
 
@@ -20,6 +23,7 @@ import numpy as np
 import rclpy
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
+from geometry_msgs.msg import PoseStamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Bool
@@ -88,6 +92,15 @@ out["bad_param"] = [result.successful, result.reason]
 param = Parameter(name="scenario", value=ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="nowhere"))
 result = call(SetParameters, "sim/set_parameters", SetParameters.Request(parameters=[param])).results[0]
 out["bad_scenario"] = [result.successful, result.reason]
+
+targets = []
+node.create_subscription(PoseStamped, "target_pose", targets.append, 10)
+param = Parameter(name="scenario", value=ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="conveyor"))
+result = call(SetParameters, "sim/set_parameters", SetParameters.Request(parameters=[param])).results[0]
+response = call(Trigger, "sim/reset", Trigger.Request())
+out["conveyor"] = [result.successful, response.success, response.message]
+spin_until(lambda: len(targets) > 3, 10.0)
+out["targets"] = [[t.header.frame_id, t.pose.position.y, t.pose.position.z, t.pose.orientation.x] for t in targets]
 print(json.dumps(out))
 """
 
@@ -124,7 +137,8 @@ def test_sim_node_end_to_end(tmp_path):
     scenario = tmp_path / "block.yaml"
     scenario.write_text(yaml.safe_dump(BLOCK))
     env = child_env(random.SystemRandom().randint(1, 100))
-    sim_cmd = [sys.executable, "-m", "latent_planner_ros", "run", "sim", "--ros-args", "-p", f"scenario:={scenario}"]
+    sim_cmd = [sys.executable, "-m", "latent_planner_ros", "run", "sim", "--ros-args"]
+    sim_cmd += ["--params-file", str(REPO / "config" / "sim.yaml"), "-p", f"scenario:={scenario}"]
     procs = []
     try:
         sim = subprocess.Popen(sim_cmd, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -157,3 +171,27 @@ def test_sim_node_end_to_end(tmp_path):
     assert not result["bad_param"][0] and "camera.fovy" in result["bad_param"][1]
     assert not result["bad_scenario"][0] and "unknown scenario 'nowhere'" in result["bad_scenario"][1]
     assert "refused: JointState position is NaN" in sim_log and "unknown joints ['elbow']" in sim_log
+    assert result["conveyor"][:2] == [True, True] and "conveyor" in result["conveyor"][2]
+    frames, ys, zs, qx = zip(*result["targets"], strict=True)
+    assert set(frames) == {"world"} and len(set(ys)) > 1, "the target moves along the belt"
+    assert all(abs(z - 0.2) < 1e-6 for z in zs) and all(abs(x - 1.0) < 1e-6 for x in qx)
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+@pytest.mark.timeout(90)
+def test_record_writes_a_gif_on_ctrl_c(tmp_path):
+    gif = tmp_path / "out.gif"
+    env = child_env(random.SystemRandom().randint(1, 100))
+    cmd = [sys.executable, "-m", "latent_planner_ros", "run", "sim", "--record", str(gif), "--record-size", "160x120"]
+    sim = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        time.sleep(8.0)
+    finally:
+        log = stop(sim)
+    assert sim.returncode == 0, log
+    assert "Traceback" not in log
+    written = re.search(r"wrote (\d+) pictures", log)
+    assert written and int(written.group(1)) >= 10, log  # 10 per simulated second
+    frames = iio.imread(gif, index=None)  # (identical frames of the still arm are merged in the GIF)
+    assert frames.shape[1:3] == (120, 160)

@@ -72,3 +72,14 @@ def test_spec_errors():
         scenario_from_spec({"generator": "empty", "objects": []}, seed=0)
     with pytest.raises(ScenarioError, match="only generators take params"):
         scenario_from_spec({"objects": []}, seed=0, overrides={"speed": 1})
+
+
+def test_the_documented_example_scene_loads(tmp_path):
+    doc = (REPO / "docs" / "scenarios.md").read_text()
+    section = doc.split("## Writing a fixed scene", 1)[1]
+    example = section.split("```yaml", 1)[1].split("```", 1)[0]
+    path = tmp_path / "example.yaml"
+    path.write_text(example)
+    scenario = load_scenario(str(path))
+    assert [o.type for o in scenario.objects] == ["box", "cylinder", "sphere", "mesh"]
+    assert scenario.target.object == "ball" and scenario.object("ball").motion.mode == "bounce"
