@@ -33,6 +33,7 @@ from std_srvs.srv import Trigger
 
 from latent_planner_ros.robot.limits import JOINT_NAMES
 from msg_adapters import AdapterError, joint_state_to_q, q_to_joint_state, target_to_pose_stamped, xyz_to_cloud
+from sim_bridge.mjcf import DEPTH_CAMERA, OVERVIEW_CAMERA
 from sim_bridge.params import ConfigError, from_params, to_params
 from sim_bridge.render import Recorder, Snapshotter
 from sim_bridge.runner import Runner, Tick
@@ -115,11 +116,13 @@ class SimNode(Node):
             self.get_logger().warning(f"joint_command {result.reason}", throttle_duration_sec=1.0)
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        previous = self.sim.config
         try:
             scenario = scenario_of(self.config)
             self.sim.config = self.config
             self.runner.reset(scenario)
         except (ScenarioError, ConfigError) as err:
+            self.sim.config = previous  # the old scene keeps running
             response.success, response.message = False, str(err)
             return response
         self._was_colliding = False
@@ -162,7 +165,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--record", type=Path, help="write pictures: out.gif, or a directory for PNG frames")
     parser.add_argument("--record-fps", type=float, default=10.0, help="pictures per simulated second")
     parser.add_argument("--record-size", default="480x360", help="picture size WIDTHxHEIGHT")
-    parser.add_argument("--record-camera", default="overview", help="camera of the pictures (overview, depth_camera)")
+    parser.add_argument("--record-camera", default=OVERVIEW_CAMERA, choices=(OVERVIEW_CAMERA, DEPTH_CAMERA))
     parser.add_argument("--duration", type=float, default=0.0, help="stop after this many simulated seconds")
     args = parser.parse_args(argv)
     try:

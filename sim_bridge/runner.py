@@ -13,6 +13,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from sim_bridge.scenario import Scenario
 from sim_bridge.sim import Sim
 
 
@@ -87,10 +88,10 @@ class Runner:
         self.real_time_factor = float(factor)
         self._anchor()
 
-    def reset(self, *args, **kwargs) -> None:
-        """``sim.reset(*args, **kwargs)`` keeping the clock running (the new episode starts at the old clock)."""
+    def reset(self, scenario: Scenario | None = None) -> None:
+        """``sim.reset(scenario)`` keeping the clock running (the new episode starts at the old clock)."""
         clock = self.clock
-        self.sim.reset(*args, **kwargs)
+        self.sim.reset(scenario)
         self._clock_offset = clock - self.sim.data.time
         self._restart_schedules()
         self._anchor(settle=True)

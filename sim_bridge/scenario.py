@@ -403,7 +403,7 @@ def scenario_from_dict(data: Any, where: str = "") -> Scenario:
     if r.has("target") and r.raw("target") is not None:
         where_t = r._at("target")
         t = _Reader(r.raw("target"), where_t, ("position", "quaternion_xyzw", "object"))
-        follow = t.string("object", default=None) if t.has("object") and t.raw("object") is not None else None
+        follow = t.string("object") if t.raw("object", default=None) is not None else None
         if follow is not None and follow not in seen:
             raise ScenarioError(f"{where_t}.object: no object named {follow!r} (objects: {sorted(seen)})")
         target = Target(

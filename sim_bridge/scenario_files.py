@@ -46,19 +46,18 @@ def scenario_dirs() -> list[Path]:
     """Directories searched for ``<name>.yaml``, first match wins.
 
     ``$LATENT_PLANNER_SCENARIOS`` (os.pathsep-separated), the source tree's ``config/scenarios`` (editable
-    installs), ``<sys.prefix>/share/latent_planner_ros/config/scenarios`` (pip), and the share directory
-    of every ``$AMENT_PREFIX_PATH`` entry (colcon).
+    installs), then ``share/latent_planner_ros/config/scenarios`` under the install prefix: the ancestors of
+    this module (pip into any prefix, colcon's install/<pkg>), ``sys.prefix``, and every ``$AMENT_PREFIX_PATH``
+    entry.
     """
+    here = Path(__file__).resolve()
     dirs = [Path(p) for p in os.environ.get("LATENT_PLANNER_SCENARIOS", "").split(os.pathsep) if p]
-    dirs.append(Path(__file__).resolve().parents[1] / "config" / "scenarios")
+    dirs.append(here.parents[1] / "config" / "scenarios")
     share = Path("share") / PACKAGE / "config" / "scenarios"
+    dirs += [ancestor / share for ancestor in here.parents[1:6]]
     dirs.append(Path(sys.prefix) / share)
     dirs += [Path(p) / share for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
-    unique: list[Path] = []
-    for d in dirs:
-        if d not in unique:
-            unique.append(d)
-    return unique
+    return list(dict.fromkeys(dirs))
 
 
 def available_scenarios() -> list[str]:
@@ -82,9 +81,9 @@ def find_scenario_file(name_or_path: str) -> Path:
         candidate = d / f"{name_or_path}.yaml"
         if candidate.is_file():
             return candidate
+    searched = [str(d) for d in scenario_dirs() if d.is_dir()]
     raise ScenarioError(
-        f"unknown scenario {name_or_path!r}: no {name_or_path}.yaml in {[str(d) for d in scenario_dirs()]}; "
-        f"available: {available_scenarios()}"
+        f"unknown scenario {name_or_path!r}: no {name_or_path}.yaml in {searched}; available: {available_scenarios()}"
     )
 
 

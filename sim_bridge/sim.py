@@ -57,10 +57,10 @@ class Sim:
         self.reset(scenario)
 
     # ------------------------------------------------------------------ lifecycle
-    def reset(self, scenario: Scenario | None = None, seed: int | None = None) -> None:
+    def reset(self, scenario: Scenario | None = None) -> None:
         """Rebuild the scene (of `scenario`, or the current one) and put the arm at config.initial_q.
 
-        `seed` seeds the camera noise (default: config.seed; -1 or None in both: fresh entropy).
+        The camera noise restarts from config.seed (-1: fresh entropy).
         """
         self.scenario = scenario if scenario is not None else self.scenario
         scene = build_scene(self.scenario, self.config.camera)
@@ -81,8 +81,7 @@ class Sim:
         self._touched = self.in_collision()
         if self._camera is not None:
             self._camera.close()
-        seed = self.config.seed if seed is None else seed
-        rng = np.random.default_rng(None if seed is None or seed < 0 else seed)
+        rng = np.random.default_rng(None if self.config.seed < 0 else self.config.seed)
         self._camera = DepthCamera(self.model, self._robot_geoms, self.config.camera, rng)
 
     def close(self) -> None:
