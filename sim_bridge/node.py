@@ -61,10 +61,10 @@ class SimNode(Node):
 
     def __init__(self, frame_rate: float = 0.0, **kwargs):
         super().__init__("sim", **kwargs)
-        names = to_params(SimConfig())
-        for name, value in names.items():
+        self._param_names = to_params(SimConfig())
+        for name, value in self._param_names.items():
             self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
-        self.config = from_params(SimConfig, {n: self.get_parameter(n).value for n in names})
+        self.config = from_params(SimConfig, {n: self.get_parameter(n).value for n in self._param_names})
         self.sim = Sim(scenario_of(self.config), self.config)
         self.runner = Runner(self.sim, frame_rate=frame_rate)
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -88,9 +88,10 @@ class SimNode(Node):
 
     # ------------------------------------------------------------------ callbacks
     def _on_set_parameters(self, params) -> SetParametersResult:
+        ours = {p.name: p.value for p in params if p.name in self._param_names}  # not use_sim_time etc.
         try:
-            config = from_params(SimConfig, {p.name: p.value for p in params}, base=self.config)
-            if any(p.name in ("scenario", "scenario_overrides") for p in params):
+            config = from_params(SimConfig, ours, base=self.config)
+            if {"scenario", "scenario_overrides"} & set(ours):
                 scenario_of(config)  # refuse a scenario that would not load
         except (ConfigError, ScenarioError) as err:
             return SetParametersResult(successful=False, reason=str(err))

@@ -71,8 +71,9 @@ out["collision_before"] = any(got["collision"])
 
 names = [f"panda_joint{i}" for i in range(1, 8)]
 command.publish(JointState(name=names, position=[float("nan")] + q[1:].tolist()))
-unknown = q_to_joint_state(np.r_[q, 0.0], names=names + ["elbow"])
-command.publish(unknown)
+spin_until(lambda: False, 0.5)
+command.publish(q_to_joint_state(np.r_[q, 0.0], names=names + ["elbow"]))
+spin_until(lambda: False, 0.5)
 reach = np.asarray(json.loads(sys.argv[1]))
 got["collision"].clear()
 def push():
@@ -92,6 +93,9 @@ out["bad_param"] = [result.successful, result.reason]
 param = Parameter(name="scenario", value=ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="nowhere"))
 result = call(SetParameters, "sim/set_parameters", SetParameters.Request(parameters=[param])).results[0]
 out["bad_scenario"] = [result.successful, result.reason]
+param = Parameter(name="use_sim_time", value=ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=False))
+result = call(SetParameters, "sim/set_parameters", SetParameters.Request(parameters=[param])).results[0]
+out["use_sim_time"] = result.successful
 
 targets = []
 node.create_subscription(PoseStamped, "target_pose", targets.append, 10)
@@ -170,7 +174,9 @@ def test_sim_node_end_to_end(tmp_path):
     assert not result["collision_after_reset"]
     assert not result["bad_param"][0] and "camera.fovy" in result["bad_param"][1]
     assert not result["bad_scenario"][0] and "unknown scenario 'nowhere'" in result["bad_scenario"][1]
-    assert "refused: JointState position is NaN" in sim_log and "unknown joints ['elbow']" in sim_log
+    assert result["use_sim_time"], "ROS's own parameters are not ours to refuse"
+    assert "refused: JointState position is NaN" in sim_log, sim_log[-3000:]
+    assert "refused: unknown joints ['elbow']" in sim_log, sim_log[-3000:]
     assert result["conveyor"][:2] == [True, True] and "conveyor" in result["conveyor"][2]
     frames, ys, zs, qx = zip(*result["targets"], strict=True)
     assert set(frames) == {"world"} and len(set(ys)) > 1, "the target moves along the belt"
