@@ -1,0 +1,1 @@
+"""Collision-predictor data: procedural scenes, a virtual depth camera, exact collision labels."""

@@ -1,0 +1,87 @@
+"""Pinhole depth camera model and random viewpoints around the table.
+
+Conventions (as a ROS/MuJoCo depth camera's optical frame): z forward, x right, y down; pixel (u, v) with
+u along the width sees the ray direction ((u - cx) / fx, (v - cy) / fy, 1) in the camera frame, and the depth
+is the z coordinate of the hit point in that frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class CameraIntrinsics:
+    """Pinhole intrinsics: image size [px], focal lengths [px], principal point [px]."""
+
+    width: int = 192
+    height: int = 144
+    fx: float = 138.3
+    fy: float = 138.3
+    cx: float = 95.5
+    cy: float = 71.5
+
+    @classmethod
+    def from_fov(cls, width: int, height: int, fovy_deg: float) -> CameraIntrinsics:
+        """Square pixels, vertical field of view fovy_deg [deg], principal point at the image centre."""
+        f = (height / 2) / math.tan(math.radians(fovy_deg) / 2)
+        return cls(width, height, f, f, (width - 1) / 2, (height - 1) / 2)
+
+    def ray_directions(self) -> np.ndarray:
+        """(H, W, 3) ray directions in the camera frame with unit z component."""
+        u, v = np.meshgrid(np.arange(self.width), np.arange(self.height))
+        return np.stack([(u - self.cx) / self.fx, (v - self.cy) / self.fy, np.ones(u.shape)], -1)
+
+
+def look_at(eye: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(4, 4) camera-to-world pose of a camera at `eye` (3,) [m] looking at `target` (3,), image y pointing down."""
+    z = np.asarray(target, dtype=float) - np.asarray(eye, dtype=float)
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    if np.linalg.norm(x) < 1e-6:  # looking straight down or up
+        x = np.array([0.0, -1.0, 0.0])
+    x /= np.linalg.norm(x)
+    pose = np.eye(4)
+    pose[:3, :3] = np.stack([x, np.cross(z, x), z], 1)
+    pose[:3, 3] = eye
+    return pose
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    """The virtual depth camera of the collision data: intrinsics, viewpoint ranges, noise and crop."""
+
+    intrinsics: CameraIntrinsics = field(default_factory=CameraIntrinsics)
+    target: tuple[float, float, float] = (0.5, 0.0, 0.1)
+    """point [m] the camera looks at (workspace centre)"""
+    target_jitter: float = 0.1
+    """uniform jitter [m] of the look-at point along each axis"""
+    azimuth_deg: tuple[float, float] = (-180.0, 180.0)
+    """range of the camera's azimuth [deg] around the target, 0 = on the +x side"""
+    elevation_deg: tuple[float, float] = (20.0, 70.0)
+    """range of the camera's elevation [deg] above the table plane, seen from the target"""
+    distance: tuple[float, float] = (1.0, 1.8)
+    """range of the camera's distance [m] from the target"""
+    depth_noise: float = 0.002
+    """standard deviation [m] of additive Gaussian depth noise"""
+    depth_noise_quadratic: float = 0.0015
+    """extra noise standard deviation per squared metre of depth [1/m] (structured-light style)"""
+    max_depth: float = 4.0
+    """rays that hit nothing within this depth [m] give no point"""
+    crop_min: tuple[float, float, float] = (0.0, -0.6, -0.05)
+    """lower corner [m] of the workspace box the cloud is cropped to (`world`)"""
+    crop_max: tuple[float, float, float] = (1.0, 0.6, 0.55)
+    """upper corner [m] of the crop box"""
+
+
+def sample_camera_pose(rng: np.random.Generator, config: CameraConfig) -> np.ndarray:
+    """A random (4, 4) camera-to-world pose within the config's ranges, looking at the (jittered) target."""
+    az = math.radians(rng.uniform(*config.azimuth_deg))
+    el = math.radians(rng.uniform(*config.elevation_deg))
+    dist = rng.uniform(*config.distance)
+    target = np.asarray(config.target) + rng.uniform(-config.target_jitter, config.target_jitter, 3)
+    eye = target + dist * np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+    return look_at(eye, target)
