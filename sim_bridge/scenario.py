@@ -123,9 +123,10 @@ class SceneObject:
             return float(np.linalg.norm(self.half_extents))
         if self.type == "sphere":
             return float(self.radius)
-        if self.type in ("cylinder", "capsule"):
-            extra = self.radius if self.type == "capsule" else 0.0
-            return float(math.hypot(self.radius, self.half_length + extra))
+        if self.type == "capsule":
+            return float(self.radius + self.half_length)
+        if self.type == "cylinder":
+            return float(math.hypot(self.radius, self.half_length))
         return float(np.max(np.linalg.norm(np.asarray(self.vertices), axis=1)))
 
 
