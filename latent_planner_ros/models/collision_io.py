@@ -1,0 +1,63 @@
+"""Save and load the collision network (safetensors + JSON metadata), and find the shipped weights."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+from latent_planner_ros.models.checkpoint import CheckpointError, load_checkpoint, load_state_into, save_checkpoint
+from latent_planner_ros.models.collision_net import CollisionNet
+from latent_planner_ros.models.collision_net_config import CollisionNetConfig
+
+CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
+DEFAULT_COLLISION = "collision"
+"""Stem of the shipped collision predictor in CHECKPOINT_DIR."""
+KIND = "collision_net"
+
+
+def shipped_collision_path(name: str = DEFAULT_COLLISION) -> Path:
+    """Path stem of a shipped collision checkpoint."""
+    return CHECKPOINT_DIR / name
+
+
+def file_sha256(path: str | Path) -> str:
+    """Hex SHA-256 of a file (identifies the VAE a collision net was trained with)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def save_collision_net(stem: str | Path, net: CollisionNet, metadata: dict) -> Path:
+    """Write the network's weights and `metadata` (architecture, bounds and voxel size are added)."""
+    meta = dict(metadata)
+    meta["kind"] = KIND
+    meta["architecture"] = net.config.to_dict()
+    enc = net.config.encoder
+    meta["grid"] = {
+        "bounds_min": list(enc.bounds_min),
+        "bounds_max": list(enc.bounds_max),
+        "voxel_size": enc.voxel_size,
+        "shape": list(enc.grid_shape),
+        "channels": enc.channels,
+        "frame": "world",
+    }
+    meta["links"] = list(net.fk.frames)
+    return save_checkpoint(stem, net.state_dict(), meta)
+
+
+def load_collision_net(stem: str | Path | None = None) -> tuple[CollisionNet, dict]:
+    """Load a collision network (default: the shipped one) in eval mode; raises CheckpointError on any problem."""
+    stem = shipped_collision_path() if stem is None else Path(stem)
+    tensors, meta = load_checkpoint(stem)
+    if meta.get("kind") != KIND:
+        raise CheckpointError(f"checkpoint {stem} is not a collision network (kind={meta.get('kind')!r})")
+    try:
+        config = CollisionNetConfig.from_dict(meta["architecture"])
+    except (KeyError, TypeError, ValueError) as e:
+        raise CheckpointError(f"checkpoint {stem} has a bad 'architecture' entry: {e}") from e
+    net = CollisionNet(config)
+    if meta.get("links", list(net.fk.frames)) != list(net.fk.frames):
+        raise CheckpointError(
+            f"checkpoint {stem} was trained for links {meta['links']}, expected {list(net.fk.frames)}"
+        )
+    load_state_into(net, tensors, stem)
+    net.eval()
+    return net, meta

@@ -1,0 +1,41 @@
+"""Scores of a binary collision classifier: AUROC, precision/recall at a threshold, calibration bins."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import rankdata
+
+
+def auroc(scores: np.ndarray, labels: np.ndarray) -> float:
+    """Area under the ROC curve (Mann-Whitney U with tie correction); nan if one class is absent."""
+    scores = np.asarray(scores, dtype=float).ravel()
+    labels = np.asarray(labels, dtype=bool).ravel()
+    n_pos, n_neg = int(labels.sum()), int((~labels).sum())
+    if n_pos == 0 or n_neg == 0:
+        return float("nan")
+    ranks = rankdata(scores)
+    return float((ranks[labels].sum() - n_pos * (n_pos + 1) / 2) / (n_pos * n_neg))
+
+
+def precision_recall(p: np.ndarray, labels: np.ndarray, threshold: float) -> tuple[float, float]:
+    """(precision, recall) of the decision p >= threshold; nan where undefined."""
+    pred = np.asarray(p).ravel() >= threshold
+    labels = np.asarray(labels, dtype=bool).ravel()
+    tp = float((pred & labels).sum())
+    precision = tp / pred.sum() if pred.any() else float("nan")
+    recall = tp / labels.sum() if labels.any() else float("nan")
+    return precision, recall
+
+
+def calibration_bins(p: np.ndarray, labels: np.ndarray, n_bins: int = 10) -> dict:
+    """Reliability diagram data: per equal-width probability bin the mean prediction, positive rate, count;
+    plus the expected calibration error (count-weighted mean |mean prediction - positive rate|)."""
+    p = np.asarray(p, dtype=float).ravel()
+    labels = np.asarray(labels, dtype=float).ravel()
+    idx = np.minimum((p * n_bins).astype(int), n_bins - 1)
+    count = np.bincount(idx, minlength=n_bins)
+    safe = np.maximum(count, 1)
+    mean_p = np.bincount(idx, p, minlength=n_bins) / safe
+    rate = np.bincount(idx, labels, minlength=n_bins) / safe
+    ece = float((count * np.abs(mean_p - rate)).sum() / max(count.sum(), 1))
+    return {"mean_p": mean_p.tolist(), "positive_rate": rate.tolist(), "count": count.tolist(), "ece": ece}

@@ -1,0 +1,75 @@
+"""Collision network: voxel scene features + robot link poses + latent z -> per-link collision logits.
+
+The network is independent of the VAE: it takes q (for the link poses, via torch FK) and z side by side.
+CollisionPredictor (collision_predictor.py) ties it to a frozen VAE so that q = decode(z).
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from latent_planner_ros.data.link_geometry import LABEL_LINKS, link_geometry
+from latent_planner_ros.models.collision_net_config import CollisionNetConfig
+from latent_planner_ros.models.scene_encoder import SceneEncoder
+from latent_planner_ros.robot.rotations import matrix_to_rot6d
+from latent_planner_ros.robot.torch_fk import TorchFK
+
+
+class CollisionNet(nn.Module):
+    """Scene encoder + shared per-link classifier (L = len(LABEL_LINKS) links)."""
+
+    def __init__(self, config: CollisionNetConfig):
+        super().__init__()
+        self.config = config
+        self.encoder = SceneEncoder(config.encoder)
+        n_links, k = len(LABEL_LINKS), config.points_per_link
+        enc = config.encoder
+        in_dim = k * (enc.channels + 3) + 6 + config.latent + n_links
+        layers: list[nn.Module] = []
+        for width in config.hidden:
+            layers += [nn.Linear(in_dim, width), nn.ELU()]
+            in_dim = width
+        self.classifier = nn.Sequential(*layers, nn.Linear(in_dim, 1))
+        self.fk = TorchFK(frames=LABEL_LINKS)
+        lo, hi = torch.tensor(enc.bounds_min), torch.tensor(enc.bounds_max)
+        self.register_buffer(
+            "link_points", torch.as_tensor(link_geometry().axis_points(k), dtype=torch.float32), persistent=False
+        )
+        self.register_buffer("centre", (lo + hi) / 2, persistent=False)
+        self.register_buffer("half_extent", (hi - lo) / 2, persistent=False)
+        self.register_buffer("one_hot", torch.eye(n_links), persistent=False)
+
+    @property
+    def n_links(self) -> int:
+        return len(LABEL_LINKS)
+
+    def link_inputs(self, grid: torch.Tensor, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
+        """Per-link classifier inputs (S, M, L, D) for grids (S, C, nx, ny, nz), q (S, M, 7) [rad], z (S, M, latent)."""
+        s, m = q.shape[:2]
+        poses = self.fk(q.reshape(-1, 7).to(self.link_points.dtype)).reshape(s, m, self.n_links, 4, 4)
+        rot, pos = poses[..., :3, :3], poses[..., :3, 3]
+        pts = torch.einsum("smlij,lkj->smlki", rot, self.link_points) + pos[..., None, :]  # (S, M, L, K, 3)
+        norm = (pts - self.centre) / self.half_extent  # [-1, 1] over the bounds (align_corners=False convention)
+        grid_xyz = norm.reshape(s, -1, 1, 1, 3).flip(-1)  # grid_sample wants (z, y, x) for a (x, y, z) volume
+        feats = F.grid_sample(grid, grid_xyz, mode="bilinear", padding_mode="zeros", align_corners=False)
+        feats = feats.reshape(s, grid.shape[1], m, self.n_links, -1).permute(0, 2, 3, 4, 1)  # (S, M, L, K, C)
+        parts = [
+            feats.reshape(s, m, self.n_links, -1),
+            norm.reshape(s, m, self.n_links, -1),
+            matrix_to_rot6d(rot),
+            z.to(feats.dtype)[:, :, None, :].expand(s, m, self.n_links, -1),
+            self.one_hot.to(feats.dtype).expand(s, m, -1, -1),
+        ]
+        return torch.cat(parts, -1)
+
+    def link_logits(self, grid: torch.Tensor, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
+        """Per-link collision logits (S, M, L) for grids (S, C, nx, ny, nz), q (S, M, 7) [rad], z (S, M, latent)."""
+        return self.classifier(self.link_inputs(grid, q, z)).squeeze(-1)
+
+    def combine(self, link_logits: torch.Tensor) -> torch.Tensor:
+        """Global collision logit (...) from per-link logits (..., L)."""
+        if self.config.combine == "max":
+            return link_logits.max(-1).values
+        return torch.logsumexp(link_logits, -1)

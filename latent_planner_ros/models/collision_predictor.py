@@ -1,0 +1,98 @@
+"""The collision predictor used by the planner: p(collision | scene cloud, latent z) through a frozen VAE.
+
+predictor = CollisionPredictor.load()                 # shipped weights and the VAE they were trained with
+emb = predictor.encode(points)                        # once per cloud (N, 3) -> SceneEmbedding
+p = predictor.p_collision(emb, z)                     # (B,), differentiable w.r.t. z (B, latent)
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from latent_planner_ros.models.checkpoint import CheckpointError
+from latent_planner_ros.models.collision_io import file_sha256, load_collision_net
+from latent_planner_ros.models.collision_net import CollisionNet
+from latent_planner_ros.models.scene_encoder import SceneEmbedding
+from latent_planner_ros.models.vae import RobotStateVAE
+from latent_planner_ros.models.vae_io import load_vae, shipped_vae_path
+
+
+class CollisionPredictor:
+    """A CollisionNet tied to the VAE whose latent it reads (q = vae.decode(z).q).
+
+    Args:
+        net: the collision network (eval mode; its parameters are frozen here).
+        vae: the robot-state VAE (frozen).
+    """
+
+    def __init__(self, net: CollisionNet, vae: RobotStateVAE):
+        if vae.config.latent != net.config.latent:
+            raise ValueError(f"VAE latent {vae.config.latent} != collision net latent {net.config.latent}")
+        self.net = net.eval().requires_grad_(False)
+        self.vae = vae.eval().requires_grad_(False)
+
+    @classmethod
+    def load(cls, stem: str | Path | None = None, vae: RobotStateVAE | str | Path | None = None) -> CollisionPredictor:
+        """Load a checkpoint (default: shipped); the VAE defaults to the one recorded in its metadata.
+
+        Raises CheckpointError for a missing/corrupt checkpoint; warns if the VAE's weights differ from the
+        ones the network was trained with.
+        """
+        net, meta = load_collision_net(stem)
+        info = meta.get("vae", {})
+        if vae is None or isinstance(vae, str | Path):
+            vae_stem = Path(vae) if vae is not None else _recorded_vae(info)
+            vae_model, _ = load_vae(vae_stem)
+            sha = file_sha256(Path(vae_stem).with_suffix(".safetensors"))
+            if info.get("sha256") and info["sha256"] != sha:
+                warnings.warn(f"VAE {vae_stem} differs from the one the collision net was trained with", stacklevel=2)
+            vae = vae_model
+        return cls(net, vae)
+
+    def encode(self, points: np.ndarray | torch.Tensor) -> SceneEmbedding:
+        """Embed one cloud (N, 3) float [m] in `world` (robot points removed)."""
+        with torch.no_grad():
+            return self.net.encoder.encode(points)
+
+    def embedding_from_points(self, centres: np.ndarray, features: np.ndarray) -> SceneEmbedding:
+        """Rebuild an embedding received as voxel centres (V, 3) and features (V, C); ValueError if off-grid."""
+        return SceneEmbedding.from_points(centres, features, self.net.config.encoder)
+
+    def link_logits_q(self, embedding: SceneEmbedding, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
+        """Per-link logits (B, L) for configurations q (B, 7) [rad] with their latents z (B, latent)."""
+        grid = embedding.features.to(q.dtype)[None] if embedding.features.dtype != q.dtype else embedding.features[None]
+        return self.net.link_logits(grid, q[None], z[None])[0]
+
+    def link_logits(self, embedding: SceneEmbedding, z: torch.Tensor) -> torch.Tensor:
+        """Per-link logits (B, L) for latents z (B, latent), with q = vae.decode(z).q."""
+        return self.link_logits_q(embedding, self.vae.decode(z).q, z)
+
+    def logit(self, embedding: SceneEmbedding, z: torch.Tensor) -> torch.Tensor:
+        """Global collision logit (B,) for latents z (B, latent)."""
+        return self.net.combine(self.link_logits(embedding, z))
+
+    def p_collision(self, embedding: SceneEmbedding, z: torch.Tensor) -> torch.Tensor:
+        """Probability of collision (B,) for latents z (B, latent); differentiable w.r.t. z."""
+        return torch.sigmoid(self.logit(embedding, z))
+
+    def p_collision_q(self, embedding: SceneEmbedding, q: torch.Tensor) -> torch.Tensor:
+        """Probability of collision (B,) for configurations q (B, 7) [rad] (z = posterior mean of q)."""
+        z = self.vae.encode_q(q.to(torch.float32)).to(q.dtype)
+        return torch.sigmoid(self.net.combine(self.link_logits_q(embedding, q, z)))
+
+
+def _recorded_vae(info: dict) -> Path:
+    """The VAE recorded at training time: the shipped one of that name, else its path, else the shipped default."""
+    if info.get("name") and shipped_vae_path(info["name"]).with_suffix(".safetensors").exists():
+        return shipped_vae_path(info["name"])
+    path = info.get("path")
+    if path and Path(path).with_suffix(".safetensors").exists():
+        return Path(path)
+    default = shipped_vae_path()
+    if not default.with_suffix(".safetensors").exists():
+        raise CheckpointError(f"no VAE for the collision predictor: {path!r} and {default} are missing")
+    return default

@@ -1,0 +1,171 @@
+"""Scene encoder: a point cloud -> a grid of voxel features (SceneCollisionNet-style, sized for a CPU).
+
+Points are voxelised over fixed workspace bounds; each point's offset from its voxel centre goes through a
+small MLP, the results are max-pooled per voxel and joined by a log(1 + count) channel, then 3D convolutions
+mix neighbouring voxels. The result is a SceneEmbedding, which can travel as a point cloud of voxel centres
+with one float field per feature channel (f0..fC-1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import torch
+from torch import nn
+
+
+@dataclass(frozen=True)
+class SceneEncoderConfig:
+    """Voxel grid and widths of the scene encoder."""
+
+    bounds_min: tuple[float, float, float] = (0.0, -0.6, -0.05)
+    """lower corner [m] of the encoded workspace box in `world`"""
+    bounds_max: tuple[float, float, float] = (1.0, 0.6, 0.55)
+    """upper corner [m]; (max - min) must be a whole number of voxels along each axis"""
+    voxel_size: float = 0.1
+    """edge length [m] of the cubic voxels"""
+    point_hidden: int = 32
+    """width of the per-point MLP's hidden layer"""
+    point_features: int = 64
+    """per-point (and max-pooled per-voxel) feature width"""
+    conv_channels: tuple[int, ...] = (64, 64, 128)
+    """output channels of the 3x3x3 convolutions; the last one is the embedding width"""
+
+    def __post_init__(self) -> None:
+        extent = np.asarray(self.bounds_max) - np.asarray(self.bounds_min)
+        cells = extent / self.voxel_size
+        if np.any(extent <= 0) or np.any(np.abs(cells - np.round(cells)) > 1e-6):
+            raise ValueError(
+                f"bounds {self.bounds_min}..{self.bounds_max} are not a whole number of {self.voxel_size} m voxels"
+            )
+        if not self.conv_channels:
+            raise ValueError("conv_channels must not be empty")
+
+    @property
+    def grid_shape(self) -> tuple[int, int, int]:
+        """Voxels along x, y, z."""
+        cells = (np.asarray(self.bounds_max) - np.asarray(self.bounds_min)) / self.voxel_size
+        return tuple(int(c) for c in np.round(cells))
+
+    @property
+    def channels(self) -> int:
+        """Feature channels of the embedding."""
+        return self.conv_channels[-1]
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> SceneEncoderConfig:
+        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
+
+
+def voxel_centres(config: SceneEncoderConfig) -> np.ndarray:
+    """Centres (V, 3) float32 [m] of all voxels, x-major order (index = (ix * ny + iy) * nz + iz)."""
+    nx, ny, nz = config.grid_shape
+    idx = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1).reshape(-1, 3)
+    return (np.asarray(config.bounds_min) + (idx + 0.5) * config.voxel_size).astype(np.float32)
+
+
+@dataclass
+class SceneEmbedding:
+    """The encoded scene: a dense feature grid over the encoder's workspace bounds.
+
+    Attributes:
+        features: (C, nx, ny, nz) float32 voxel features.
+        config: the encoder configuration (bounds, voxel size) the grid belongs to.
+    """
+
+    features: torch.Tensor
+    config: SceneEncoderConfig
+
+    def to_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """Voxel centres (V, 3) float32 [m] and their features (V, C) float32, x-major voxel order."""
+        c = self.features.shape[0]
+        return voxel_centres(self.config), self.features.detach().cpu().reshape(c, -1).T.contiguous().numpy()
+
+    @classmethod
+    def from_points(cls, centres: np.ndarray, features: np.ndarray, config: SceneEncoderConfig) -> SceneEmbedding:
+        """Rebuild the grid from voxel centres (V, 3) and features (V, C) in any order.
+
+        Raises ValueError if a centre is off the grid or outside the bounds, a voxel is missing or repeated,
+        or the feature width differs from the config's.
+        """
+        centres = np.asarray(centres, dtype=float).reshape(-1, 3)
+        features = np.asarray(features, dtype=np.float32)
+        nx, ny, nz = config.grid_shape
+        if features.ndim != 2 or features.shape != (len(centres), config.channels):
+            raise ValueError(f"expected features ({len(centres)}, {config.channels}), got {features.shape}")
+        if len(centres) != nx * ny * nz:
+            raise ValueError(f"expected {nx * ny * nz} voxels ({nx}x{ny}x{nz}), got {len(centres)}")
+        f = (centres - np.asarray(config.bounds_min)) / config.voxel_size - 0.5
+        idx = np.round(f).astype(int)
+        if np.abs(f - idx).max(initial=0.0) > 1e-3 or np.any(idx < 0) or np.any(idx >= (nx, ny, nz)):
+            raise ValueError("voxel centres do not lie on the encoder's grid (bounds or voxel size differ)")
+        flat = (idx[:, 0] * ny + idx[:, 1]) * nz + idx[:, 2]
+        if len(np.unique(flat)) != len(flat):
+            raise ValueError("repeated voxel centres")
+        grid = np.empty((nx * ny * nz, config.channels), dtype=np.float32)
+        grid[flat] = features
+        return cls(torch.from_numpy(grid.T.copy()).reshape(config.channels, nx, ny, nz), config)
+
+
+class SceneEncoder(nn.Module):
+    """Point clouds -> voxel feature grids (B, C, nx, ny, nz)."""
+
+    def __init__(self, config: SceneEncoderConfig):
+        super().__init__()
+        self.config = config
+        self.point_mlp = nn.Sequential(
+            nn.Linear(3, config.point_hidden),
+            nn.ReLU(),
+            nn.Linear(config.point_hidden, config.point_features),
+            nn.ReLU(),
+        )
+        convs: list[nn.Module] = []
+        c_in = config.point_features + 1
+        for i, c_out in enumerate(config.conv_channels):
+            convs.append(nn.Conv3d(c_in, c_out, 3, padding=1))
+            if i < len(config.conv_channels) - 1:
+                convs.append(nn.ReLU())
+            c_in = c_out
+        self.convs = nn.Sequential(*convs)
+        self.register_buffer("bounds_min", torch.tensor(config.bounds_min, dtype=torch.float32), persistent=False)
+        self.register_buffer("grid_dims", torch.tensor(config.grid_shape), persistent=False)
+
+    def forward(self, points: torch.Tensor, batch: torch.Tensor | None = None, n_batch: int = 1) -> torch.Tensor:
+        """Encode clouds.
+
+        Args:
+            points: (N, 3) points [m] in `world` of all clouds together; points outside the bounds are ignored.
+            batch: (N,) int64 index of the cloud each point belongs to (default: all in cloud 0).
+            n_batch: number of clouds B.
+        Returns:
+            (B, C, nx, ny, nz) voxel features.
+        """
+        cfg = self.config
+        nx, ny, nz = cfg.grid_shape
+        n_vox = nx * ny * nz
+        points = points.to(self.bounds_min.dtype)
+        batch = torch.zeros(len(points), dtype=torch.long, device=points.device) if batch is None else batch
+        cell = (points - self.bounds_min) / cfg.voxel_size
+        idx = torch.floor(cell).long()
+        inside = torch.all((idx >= 0) & (idx < self.grid_dims), dim=1)
+        idx, cell, batch = idx[inside], cell[inside], batch[inside]
+        offset = 2.0 * (cell - idx.to(cell.dtype) - 0.5)  # in [-1, 1] within the voxel
+        feats = self.point_mlp(offset)
+        flat = batch * n_vox + (idx[:, 0] * ny + idx[:, 1]) * nz + idx[:, 2]
+        pooled = torch.zeros(n_batch * n_vox, cfg.point_features, dtype=feats.dtype, device=feats.device)
+        pooled = pooled.scatter_reduce(
+            0, flat[:, None].expand(-1, cfg.point_features), feats, "amax", include_self=True
+        )
+        count = torch.bincount(flat, minlength=n_batch * n_vox).to(feats.dtype)
+        grid = torch.cat([pooled, torch.log1p(count)[:, None]], 1)
+        grid = grid.reshape(n_batch, nx, ny, nz, -1).permute(0, 4, 1, 2, 3)
+        return self.convs(grid.contiguous())
+
+    def encode(self, points: np.ndarray | torch.Tensor) -> SceneEmbedding:
+        """Embedding of one cloud (N, 3) [m] in `world`."""
+        p = torch.as_tensor(np.asarray(points, dtype=np.float32) if not torch.is_tensor(points) else points)
+        return SceneEmbedding(self.forward(p.reshape(-1, 3).to(self.bounds_min.device))[0], self.config)

@@ -1,0 +1,46 @@
+"""Hyperparameters of collision-predictor training (`python -m latent_planner_ros train collision`)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+
+@dataclass
+class TrainCollisionConfig:
+    """Training of the collision network on cached labelled scenes, clouds rendered on the fly."""
+
+    data: str = "data_cache/collision/train"
+    """directory of training shards (rescanned every `refresh_every` steps, so generation may continue)"""
+    val_dir: str = "data_cache/collision"
+    """directory holding (or receiving, on first use) the validation shards val_seen/ and val_unseen/"""
+    val_scenes: int = 50
+    """validation scenes per family (own seed split); model selection uses the training family's only"""
+    scenes_per_step: int = 8
+    """scenes (clouds) per training step"""
+    queries_per_scene: int = 128
+    """labelled configurations per scene and step"""
+    near_fraction: float = 0.5
+    """fraction of a scene's queries drawn from its near-object configurations"""
+    hard_fraction: float = 0.25
+    """fraction of a scene's queries replaced by the hardest of a larger forward-only candidate set (0 = off)"""
+    hard_candidates: int = 4
+    """candidate set size for hard mining, in multiples of the replaced queries"""
+    lr: float = 1e-3
+    """Adam learning rate at the start (cosine decay to lr_final)"""
+    lr_final: float = 5e-5
+    weight_decay: float = 1e-5
+    link_loss_weight: float = 1.0
+    """weight of the per-link BCE relative to the global BCE"""
+    point_keep: tuple[float, float] = (0.3, 1.0)
+    """range of the random fraction of cloud points kept (density augmentation)"""
+    threshold: float = 0.3
+    """decision threshold on p(collision) for the reported precision/recall (the planner's gamma_col)"""
+    eval_every: int = 300
+    """steps between evaluations and checkpoints"""
+    refresh_every: int = 200
+    """steps between rescans of the data directory for new shards"""
+    seed: int = 0
+    threads: int = 2
+
+    def to_dict(self) -> dict:
+        return asdict(self)
