@@ -176,6 +176,18 @@ class CollisionData:
             [], np.zeros((0, 7), np.float32), np.zeros(0, np.int64), np.zeros((0, n_links), bool), np.zeros(0, bool), []
         )
 
+    def first(self, n_scenes: int) -> CollisionData:
+        """The first n_scenes scenes and their configurations."""
+        keep = self.scene < n_scenes
+        return CollisionData(
+            self.scenes[:n_scenes],
+            self.q[keep],
+            self.scene[keep],
+            self.link_labels[keep],
+            self.near[keep],
+            list(self.shards),
+        )
+
     def add_shard(self, path: Path) -> None:
         """Append one shard (npz + json); raises ValueError if it is unreadable or its links differ."""
         path = Path(path)

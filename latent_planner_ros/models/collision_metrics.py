@@ -39,3 +39,15 @@ def calibration_bins(p: np.ndarray, labels: np.ndarray, n_bins: int = 10) -> dic
     rate = np.bincount(idx, labels, minlength=n_bins) / safe
     ece = float((count * np.abs(mean_p - rate)).sum() / max(count.sum(), 1))
     return {"mean_p": mean_p.tolist(), "positive_rate": rate.tolist(), "count": count.tolist(), "ece": ece}
+
+
+def roc_curve(scores: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """False and true positive rates (K,) over all thresholds, from (0, 0) to (1, 1)."""
+    scores = np.asarray(scores, dtype=float).ravel()
+    labels = np.asarray(labels, dtype=bool).ravel()
+    order = np.argsort(-scores, kind="stable")
+    s, y = scores[order], labels[order]
+    last = np.r_[np.flatnonzero(np.diff(s)), len(s) - 1]  # end of each run of equal scores
+    tp = np.cumsum(y)[last]
+    fp = np.cumsum(~y)[last]
+    return np.r_[0.0, fp / max(fp[-1], 1)], np.r_[0.0, tp / max(tp[-1], 1)]

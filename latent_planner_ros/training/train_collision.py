@@ -34,6 +34,8 @@ from latent_planner_ros.training.train_collision_trainer import CollisionTrainer
 
 VAL_SEED = 7
 """Seed of the validation splits ("val_seen", "val_unseen"), disjoint from training and benchmark splits."""
+VAL_SHARD = 5
+"""Scenes per validation shard (fixed, so runs asking for different numbers of scenes share the cache)."""
 
 
 def parse_args(argv: list[str]) -> tuple[argparse.Namespace, TrainCollisionConfig]:
@@ -70,9 +72,9 @@ def validation_sets(root: Path, n_scenes: int, camera: CameraConfig) -> dict[str
     out = {}
     for name, family in (("seen", "train"), ("unseen", "heldout")):
         directory = root / f"val_{name}"
-        cfg = DatasetConfig(family=family, scenes_per_shard=min(25, n_scenes))
+        cfg = DatasetConfig(family=family, scenes_per_shard=VAL_SHARD)
         generate_dataset(directory, n_scenes, split=f"val_{name}", seed=VAL_SEED, config=cfg)
-        data = CollisionData.load(directory, limit=-(-n_scenes // cfg.scenes_per_shard))
+        data = CollisionData.load(directory, limit=-(-n_scenes // VAL_SHARD)).first(n_scenes)
         out[name] = EvalSet(data, seed=VAL_SEED, camera=camera)
     return out
 

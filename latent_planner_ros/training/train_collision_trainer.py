@@ -97,12 +97,16 @@ class CollisionTrainer:
         keep = self.rng.uniform(*self.config.point_keep)
         return pts[self.rng.random(len(pts)) < keep]
 
-    def _tensors(self, rows: np.ndarray) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-        """q (S, M, 7), z (S, M, latent), global labels (S, M), link labels (S, M, L) for rows (S, M)."""
-        q = torch.as_tensor(self.data.q[rows], device=self.device)
+    def _tensors(
+        self, rows: np.ndarray, data: CollisionData | None = None
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """q (S, M, 7), z (S, M, latent), global labels (S, M), link labels (S, M, L) for rows (S, M) of `data`
+        (default: the training data)."""
+        data = self.data if data is None else data
+        q = torch.as_tensor(data.q[rows], device=self.device)
         with torch.no_grad():
             z = self.vae.encode_q(q.reshape(-1, 7)).reshape(*rows.shape, -1)
-        link = torch.as_tensor(self.data.link_labels[rows], dtype=torch.float32, device=self.device)
+        link = torch.as_tensor(data.link_labels[rows], dtype=torch.float32, device=self.device)
         return q, z, link.amax(-1), link
 
     def losses(
@@ -158,7 +162,7 @@ class CollisionTrainer:
         for i, cloud in enumerate(ev.clouds):
             rows = np.flatnonzero(d.scene == i)[None]
             grid = self.net.encoder(torch.as_tensor(cloud).to(self.device))
-            q, z, y, y_link = self._tensors(rows)
+            q, z, y, y_link = self._tensors(rows, d)
             per, logit = self.losses(self.net.link_logits(grid, q, z), y, y_link)
             ps.append(torch.sigmoid(logit)[0].cpu().numpy())
             losses.append(per.mean().item())

@@ -32,8 +32,8 @@ def workspace(tmp_path_factory):
     root = tmp_path_factory.mktemp("collision")
     generate_dataset(root / "train", 2, seed=0, config=TINY, progress=False)
     for name, family in (("val_seen", "train"), ("val_unseen", "heldout")):
-        cfg = DatasetConfig(family=family, scenes_per_shard=1, pool=1500, queries=TINY.queries)
-        generate_dataset(root / name, 1, split=name, seed=7, config=cfg, progress=False)
+        cfg = DatasetConfig(family=family, scenes_per_shard=5, pool=1500, queries=TINY.queries)
+        generate_dataset(root / name, 5, split=name, seed=7, config=cfg, progress=False)
     vae = RobotStateVAE(VaeConfig(hidden=16, layers=1))
     save_vae(root / "vae", vae, {})
     return root
@@ -54,6 +54,10 @@ def test_a_tiny_run_lowers_the_loss(workspace):
         trainer.step(3e-3)
     after = trainer.evaluate_set(fixed)["loss"]
     assert after < 0.8 * before
+    # an evaluation set is scored against its own labels, not the training data's
+    flipped = CollisionData(data.scenes, data.q, data.scene, ~data.link_labels, data.near, [])
+    flipped_set = EvalSet(flipped, seed=1, camera=CameraConfig())
+    assert trainer.evaluate_set(flipped_set)["loss"] > 2 * after
 
 
 @pytest.mark.slow
