@@ -85,3 +85,14 @@ def scene_cloud(
     depth[depth > cfg.max_depth] = np.inf
     depth = add_depth_noise(depth, rng, cfg.depth_noise, cfg.depth_noise_quadratic)
     return crop(depth_to_points(depth, pose, cfg.intrinsics), cfg.crop_min, cfg.crop_max)
+
+
+def voxel_downsample(points: np.ndarray, size: float) -> np.ndarray:
+    """One point per occupied cubic voxel of edge `size` [m] (the mean of its points), float32 (M, 3)."""
+    if len(points) == 0 or size <= 0.0:
+        return points
+    keys = np.floor(points / size).astype(np.int64)
+    _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    sums = np.zeros((len(counts), 3))
+    np.add.at(sums, inverse.ravel(), points)
+    return (sums / counts[:, None]).astype(np.float32)

@@ -8,6 +8,7 @@ from pathlib import Path
 from latent_planner_ros.models.checkpoint import CheckpointError, load_checkpoint, load_state_into, save_checkpoint
 from latent_planner_ros.models.collision_net import CollisionNet
 from latent_planner_ros.models.collision_net_config import CollisionNetConfig
+from latent_planner_ros.models.scene_encoder import SceneEncoder
 
 CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
 DEFAULT_COLLISION = "collision"
@@ -61,3 +62,9 @@ def load_collision_net(stem: str | Path | None = None) -> tuple[CollisionNet, di
     load_state_into(net, tensors, stem)
     net.eval()
     return net, meta
+
+
+def load_scene_encoder(stem: str | Path | None = None) -> SceneEncoder:
+    """Only the scene encoder of a collision checkpoint (what the scene_encoder node needs; no VAE)."""
+    net, _ = load_collision_net(stem)
+    return net.encoder

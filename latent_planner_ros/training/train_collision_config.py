@@ -32,7 +32,15 @@ class TrainCollisionConfig:
     link_loss_weight: float = 1.0
     """weight of the per-link BCE relative to the global BCE"""
     point_keep: tuple[float, float] = (0.3, 1.0)
-    """range of the random fraction of cloud points kept (density augmentation)"""
+    """range of the random fraction of cloud points kept (density augmentation, when not voxel-downsampled)"""
+    voxel_downsample_prob: float = 0.5
+    """probability that a training cloud is voxel-downsampled (as the sim does) instead of thinned at random"""
+    voxel_downsample_size: tuple[float, float] = (0.01, 0.025)
+    """range of the downsampling voxel edge [m]"""
+    fovy_deg: tuple[float, float] = (40.0, 60.0)
+    """range of the training camera's vertical field of view [deg] (intrinsics augmentation)"""
+    image_scale: tuple[float, float] = (0.8, 1.4)
+    """range of the training camera's image size relative to 192 x 144 pixels"""
     threshold: float = 0.3
     """decision threshold on p(collision) for the reported precision/recall (the planner's gamma_col)"""
     eval_every: int = 300

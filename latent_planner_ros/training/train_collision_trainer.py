@@ -4,15 +4,16 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import torch
 import torch.nn.functional as F
 
-from latent_planner_ros.data.camera import CameraConfig
+from latent_planner_ros.data.camera import CameraConfig, CameraIntrinsics
 from latent_planner_ros.data.dataset import CollisionData
-from latent_planner_ros.data.render import scene_cloud
+from latent_planner_ros.data.render import scene_cloud, voxel_downsample
 from latent_planner_ros.models.checkpoint import load_checkpoint, load_state_into, save_checkpoint
 from latent_planner_ros.models.collision_io import save_collision_net
 from latent_planner_ros.models.collision_metrics import auroc, precision_recall
@@ -93,9 +94,14 @@ class CollisionTrainer:
         return np.concatenate([near, self.rng.choice(pool, n - n_near)])
 
     def _cloud(self, scene: int) -> np.ndarray:
-        pts = scene_cloud(self.data.scenes[scene], self.rng, self.camera)
-        keep = self.rng.uniform(*self.config.point_keep)
-        return pts[self.rng.random(len(pts)) < keep]
+        """A training cloud of a scene: random viewpoint, randomised intrinsics and density."""
+        c, rng = self.config, self.rng
+        scale = rng.uniform(*c.image_scale)
+        intrinsics = CameraIntrinsics.from_fov(int(192 * scale), int(144 * scale), rng.uniform(*c.fovy_deg))
+        pts = scene_cloud(self.data.scenes[scene], rng, replace(self.camera, intrinsics=intrinsics))
+        if rng.random() < c.voxel_downsample_prob:
+            return voxel_downsample(pts, rng.uniform(*c.voxel_downsample_size))
+        return pts[rng.random(len(pts)) < rng.uniform(*c.point_keep)]
 
     def _tensors(
         self, rows: np.ndarray, data: CollisionData | None = None

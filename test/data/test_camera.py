@@ -63,3 +63,14 @@ def test_sampled_viewpoints_respect_the_ranges(rng):
         assert cfg.distance[0] - 0.3 < np.linalg.norm(eye - np.asarray(cfg.target)) < cfg.distance[1] + 0.3
         assert z_axis[2] < 0  # looking down at the table
         np.testing.assert_allclose(pose[:3, :3] @ pose[:3, :3].T, np.eye(3), atol=1e-9)
+
+
+def test_voxel_downsample_keeps_one_mean_point_per_voxel(rng):
+    from latent_planner_ros.data.render import voxel_downsample
+
+    pts = rng.random((5000, 3)).astype(np.float32)
+    out = voxel_downsample(pts, 0.25)
+    assert out.dtype == np.float32 and len(out) == 64
+    keys = np.floor(out / 0.25)
+    assert len(np.unique(keys, axis=0)) == 64
+    np.testing.assert_allclose(np.sort(out[:, 0])[:16].mean(), pts[pts[:, 0] < 0.25, 0].mean(), atol=0.02)

@@ -6,7 +6,7 @@ import torch
 
 from latent_planner_ros.data.link_geometry import LABEL_LINKS
 from latent_planner_ros.models.checkpoint import CheckpointError
-from latent_planner_ros.models.collision_io import load_collision_net, save_collision_net
+from latent_planner_ros.models.collision_io import load_collision_net, load_scene_encoder, save_collision_net
 from latent_planner_ros.models.collision_net import CollisionNet
 from latent_planner_ros.models.collision_net_config import CollisionNetConfig
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
@@ -93,6 +93,9 @@ def test_checkpoint_round_trip_and_clear_errors(tmp_path, rng):
     cloud = torch.as_tensor(_cloud(rng))
     with torch.no_grad():
         torch.testing.assert_close(back.encoder(cloud), net.eval().encoder(cloud))
+    enc = load_scene_encoder(tmp_path / "c")
+    with torch.no_grad():
+        torch.testing.assert_close(enc.encode(cloud).features, net.encoder.encode(cloud).features)
     with pytest.raises(CheckpointError, match="missing"):
         load_collision_net(tmp_path / "nope")
     (tmp_path / "c.safetensors").write_bytes(b"\x00garbage")
