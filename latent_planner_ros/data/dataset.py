@@ -19,11 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
-from latent_planner_ros.data.labels import CollisionLabeler
+from latent_planner_ros.data.labels import CollisionLabeler, link_poses
 from latent_planner_ros.data.link_geometry import LABEL_LINKS
-from latent_planner_ros.data.queries import QuerySamplerConfig, sample_queries
+from latent_planner_ros.data.queries import QuerySamplerConfig, sample_query_indices
 from latent_planner_ros.data.scene import Scene
 from latent_planner_ros.data.scene_generator import SceneGeneratorConfig, generate_scene
+from latent_planner_ros.data.shapes import SHAPES_VERSION
 from latent_planner_ros.robot.sampler import FeasibleSampler
 
 DEFAULT_DATA_DIR = Path("data_cache/collision")
@@ -62,16 +63,19 @@ def generate_shard(directory: Path, split: str, index: int, seed: int, config: D
     rng = shard_rng(seed, split, index)
     sampler = FeasibleSampler(rng)
     pool = sampler.sample(config.pool)
+    pool_poses = link_poses(pool)
     scenes, qs, labels, nears, scene_idx = [], [], [], [], []
     for k in range(config.scenes_per_shard):
         scene = generate_scene(rng, config.family, config.scene, seed=index * 1000 + k)
-        q, near = sample_queries(scene, pool, rng, config.queries)
-        labels.append(CollisionLabeler(scene).label(q))
+        idx, near = sample_query_indices(scene, pool, rng, config.queries, pool_poses)
+        labels.append(CollisionLabeler(scene).label_poses(pool_poses[idx]))
         scenes.append(scene)
-        qs.append(q.astype(np.float32))
+        qs.append(pool[idx].astype(np.float32))
         nears.append(near)
-        scene_idx.append(np.full(len(q), k, dtype=np.int32))
-        pool[rng.integers(0, len(pool), config.pool_refresh)] = sampler.sample(config.pool_refresh)
+        scene_idx.append(np.full(len(idx), k, dtype=np.int32))
+        fresh = rng.integers(0, len(pool), config.pool_refresh)
+        pool[fresh] = sampler.sample(config.pool_refresh)
+        pool_poses[fresh] = link_poses(pool[fresh])
     stem = shard_stem(directory, index)
     stem.parent.mkdir(parents=True, exist_ok=True)
     tmp = stem.with_suffix(".tmp.npz")
@@ -89,6 +93,7 @@ def generate_shard(directory: Path, split: str, index: int, seed: int, config: D
         "index": index,
         "links": list(LABEL_LINKS),
         "config": config.to_dict(),
+        "shapes_version": SHAPES_VERSION,
         "seconds": round(time.monotonic() - t0, 2),
         "scenes": [s.to_dict() for s in scenes],
     }

@@ -41,50 +41,69 @@ def object_surface_points(scene: Scene, rng: np.random.Generator, density: float
     return np.concatenate(pts) if pts else np.zeros((0, 3))
 
 
-def proxy_distance(scene: Scene, q: np.ndarray, tree: cKDTree, cap: float = 0.1) -> np.ndarray:
+def proxy_distance(
+    scene: Scene, q: np.ndarray, tree: cKDTree, cap: float = 0.1, poses: np.ndarray | None = None
+) -> np.ndarray:
     """Smallest distance (N,) [m] from the links' surface points at q (N, 7) to the points in `tree`, capped.
 
     Links whose bounding sphere is farther than `cap` from every obstacle's bounding sphere are skipped.
+    `poses` (N, L, 4, 4) are the link poses of q if already known (see labels.link_poses).
     """
     links = link_geometry()
-    poses = link_poses(q)  # (N, L, 4, 4)
+    poses = link_poses(q) if poses is None else poses
     centres = np.einsum("nlij,lj->nli", poses[..., :3, :3], links.sphere_centres) + poses[..., :3, 3]
     spheres = [bounding_sphere(o) for o in scene.obstacles]
     oc = np.array([c for c, _ in spheres])
     orad = np.array([r for _, r in spheres])
     gap = np.linalg.norm(centres[:, :, None] - oc[None, None], axis=-1) - orad - links.sphere_radii[:, None]
-    n_idx, l_idx = np.nonzero(gap.min(-1) < cap)
-    out = np.full(len(q), cap)
+    n_idx, l_idx = np.nonzero(gap.min(-1) < cap)  # sorted by n
+    out = np.full(len(poses), cap)
     if len(n_idx):
         pose = poses[n_idx, l_idx]  # (K, 4, 4)
         pts = np.einsum("kij,ksj->ksi", pose[:, :3, :3], links.surface_points[l_idx]) + pose[:, None, :3, 3]
         d, _ = tree.query(pts.reshape(-1, 3), distance_upper_bound=cap)
-        np.minimum.at(out, n_idx, d.reshape(len(n_idx), -1).min(1))
+        d_min = d.reshape(len(n_idx), -1).min(1)
+        starts = np.flatnonzero(np.r_[True, n_idx[1:] != n_idx[:-1]])
+        out[n_idx[starts]] = np.minimum(np.minimum.reduceat(d_min, starts), cap)
     return out
 
 
-def sample_queries(
-    scene: Scene, pool: np.ndarray, rng: np.random.Generator, config: QuerySamplerConfig | None = None
+def sample_query_indices(
+    scene: Scene,
+    pool: np.ndarray,
+    rng: np.random.Generator,
+    config: QuerySamplerConfig | None = None,
+    pool_poses: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Configurations to label, drawn from a pool (P, 7) [rad] of uniform feasible configurations.
+    """Indices into a pool (P, 7) [rad] of uniform feasible configurations to label in `scene`.
 
-    Returns q (n_uniform + n_near, 7) [rad] and a mask (same length) of the near ones.
+    Returns indices (n_uniform + n_near,) and a mask (same length) of the near ones. `pool_poses`
+    (P, L, 4, 4) are the pool's link poses if already known.
     """
     cfg = config or QuerySamplerConfig()
     idx = rng.choice(len(pool), min(len(pool), cfg.n_uniform + cfg.candidates), replace=False)
-    uniform, cand = pool[idx[: cfg.n_uniform]], pool[idx[cfg.n_uniform :]]
+    uniform, cand = idx[: cfg.n_uniform], idx[cfg.n_uniform :]
     if cfg.n_near == 0:
         return uniform, np.zeros(len(uniform), dtype=bool)
     surface = object_surface_points(scene, rng, cfg.surface_density)
     if len(surface) == 0:
         near = cand[: cfg.n_near]
     else:
-        d = proxy_distance(scene, cand, cKDTree(surface))
+        poses = None if pool_poses is None else pool_poses[cand]
+        d = proxy_distance(scene, pool[cand], cKDTree(surface), poses=poses)
         close = np.flatnonzero(d < cfg.near_distance)
         if len(close) >= cfg.n_near:
             pick = rng.choice(close, cfg.n_near, replace=False)
         else:
             pick = np.argsort(d)[: cfg.n_near]
         near = cand[pick]
-    q = np.concatenate([uniform, near])
-    return q, np.arange(len(q)) >= len(uniform)
+    out = np.concatenate([uniform, near])
+    return out, np.arange(len(out)) >= len(uniform)
+
+
+def sample_queries(
+    scene: Scene, pool: np.ndarray, rng: np.random.Generator, config: QuerySamplerConfig | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Configurations to label: q (n_uniform + n_near, 7) [rad] from the pool, and the mask of near ones."""
+    idx, near = sample_query_indices(scene, pool, rng, config)
+    return pool[idx], near

@@ -33,7 +33,7 @@ class SceneGeneratorConfig:
     """no object comes within this horizontal distance [m] of the robot's base axis (plus its radius)"""
     tipped_prob: float = 0.25
     """probability that an object gets a random 3D orientation instead of a random yaw"""
-    lift_prob: float = 0.15
+    lift_prob: float = 0.2
     """probability that an object floats above the table (a shelf or a hand-held object)"""
     lift_range: tuple[float, float] = (0.03, 0.3)
     """height above the table [m] of a floating object's lowest point"""

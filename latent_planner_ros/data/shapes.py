@@ -14,31 +14,45 @@ from latent_planner_ros.data.obstacles import Box, Capsule, Cylinder, Mesh, Obst
 _ORIGIN = (0.0, 0.0, 0.0)
 _IDENTITY = (0.0, 0.0, 0.0, 1.0)
 
+SHAPES_VERSION = 2
+"""Version of the size distributions below, recorded in every dataset shard.
+1: sizes uniform within the ranges; 2: log-uniform, down to thin plates and rods (1-2 cm thick)."""
+
+THIN_PROB = 0.3
+"""probability that a box is a plate or a bar (one or two half extents of 0.6-2 cm)"""
+
+
+def _log_uniform(rng: np.random.Generator, lo, hi, size: int | None = None):
+    return np.exp(rng.uniform(np.log(lo), np.log(hi), size))
+
 
 def box(rng: np.random.Generator, s: float = 1.0) -> list[Obstacle]:
-    """A box with half extents 2-12 cm (up to 20 cm high)."""
-    he = s * rng.uniform([0.02, 0.02, 0.02], [0.12, 0.12, 0.2])
-    return [Box(_ORIGIN, _IDENTITY, tuple(float(x) for x in he))]
+    """A box with half extents 1-12 cm (up to 20 cm high); sometimes a plate or bar 1.2-4 cm thick."""
+    he = _log_uniform(rng, [0.01, 0.01, 0.01], [0.12, 0.12, 0.2], 3)
+    if rng.random() < THIN_PROB:
+        thin = rng.choice(3, size=int(rng.integers(1, 3)), replace=False)
+        he[thin] = rng.uniform(0.006, 0.02, len(thin))
+    return [Box(_ORIGIN, _IDENTITY, tuple(float(x) for x in s * he))]
 
 
 def cylinder(rng: np.random.Generator, s: float = 1.0) -> list[Obstacle]:
-    """An upright cylinder: radius 2-8 cm, half length 3-20 cm."""
-    return [Cylinder(_ORIGIN, _IDENTITY, float(s * rng.uniform(0.02, 0.08)), float(s * rng.uniform(0.03, 0.2)))]
+    """An upright cylinder: radius 0.8-8 cm (rods to cans), half length 2-22 cm."""
+    return [Cylinder(_ORIGIN, _IDENTITY, float(s * _log_uniform(rng, 0.008, 0.08)), float(s * rng.uniform(0.02, 0.22)))]
 
 
 def sphere(rng: np.random.Generator, s: float = 1.0) -> list[Obstacle]:
-    """A sphere of radius 3-10 cm."""
-    return [Sphere(_ORIGIN, float(s * rng.uniform(0.03, 0.1)))]
+    """A sphere of radius 2-10 cm."""
+    return [Sphere(_ORIGIN, float(s * _log_uniform(rng, 0.02, 0.1)))]
 
 
 def capsule(rng: np.random.Generator, s: float = 1.0) -> list[Obstacle]:
-    """A capsule: radius 2-6 cm, axis half length 3-15 cm."""
-    return [Capsule(_ORIGIN, _IDENTITY, float(s * rng.uniform(0.02, 0.06)), float(s * rng.uniform(0.03, 0.15)))]
+    """A capsule: radius 0.8-6 cm, axis half length 3-15 cm."""
+    return [Capsule(_ORIGIN, _IDENTITY, float(s * _log_uniform(rng, 0.008, 0.06)), float(s * rng.uniform(0.03, 0.15)))]
 
 
 def convex_hull(rng: np.random.Generator, s: float = 1.0) -> list[Obstacle]:
-    """The convex hull of 6-20 random points in an anisotropic box of half size 3-12 cm."""
-    half = s * rng.uniform(0.03, 0.12, size=3)
+    """The convex hull of 6-20 random points in an anisotropic box of half size 1-12 cm."""
+    half = s * _log_uniform(rng, 0.01, 0.12, 3)
     pts = rng.uniform(-half, half, size=(int(rng.integers(6, 21)), 3))
     hull = ConvexHull(pts)
     used = np.unique(hull.simplices)
