@@ -64,8 +64,7 @@ class CollisionPredictor:
 
     def link_logits_q(self, embedding: SceneEmbedding, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
         """Per-link logits (B, L) for configurations q (B, 7) [rad] with their latents z (B, latent)."""
-        grid = embedding.features.to(q.dtype)[None] if embedding.features.dtype != q.dtype else embedding.features[None]
-        return self.net.link_logits(grid, q[None], z[None])[0]
+        return self.net.link_logits(embedding.features.to(q.dtype)[None], q[None], z[None])[0]
 
     def link_logits(self, embedding: SceneEmbedding, z: torch.Tensor) -> torch.Tensor:
         """Per-link logits (B, L) for latents z (B, latent), with q = vae.decode(z).q."""
