@@ -195,22 +195,30 @@ class CollisionData:
 
     def add_shard(self, path: Path) -> None:
         """Append one shard (npz + json); raises ValueError if it is unreadable or its links differ."""
-        path = Path(path)
-        try:
-            meta = json.loads(path.with_suffix(".json").read_text())
-            with np.load(path) as z:
-                arrays = {k: z[k] for k in ("q", "scene", "link_labels", "near")}
-        except (OSError, ValueError, KeyError) as e:
-            raise ValueError(f"collision data shard {path} is unreadable: {e}") from e
-        if tuple(meta["links"]) != LABEL_LINKS:
-            raise ValueError(f"shard {path} labels links {meta['links']}, expected {list(LABEL_LINKS)}")
-        offset = len(self.scenes)
-        self.scenes += [Scene.from_dict(s) for s in meta["scenes"]]
-        self.q = np.concatenate([self.q, arrays["q"].astype(np.float32)])
-        self.scene = np.concatenate([self.scene, arrays["scene"].astype(np.int64) + offset])
-        self.link_labels = np.concatenate([self.link_labels, arrays["link_labels"].astype(bool)])
-        self.near = np.concatenate([self.near, arrays["near"].astype(bool)])
-        self.shards.append(path)
+        self.add_shards([path])
+
+    def add_shards(self, paths: list[Path]) -> None:
+        """Append shards (npz + json) in order, concatenating once; raises ValueError naming a bad shard."""
+        parts: dict[str, list[np.ndarray]] = {k: [getattr(self, k)] for k in ("q", "scene", "link_labels", "near")}
+        scenes = list(self.scenes)
+        for path in map(Path, paths):
+            try:
+                meta = json.loads(path.with_suffix(".json").read_text())
+                with np.load(path) as z:
+                    arrays = {k: z[k] for k in ("q", "scene", "link_labels", "near")}
+            except (OSError, ValueError, KeyError) as e:
+                raise ValueError(f"collision data shard {path} is unreadable: {e}") from e
+            if tuple(meta["links"]) != LABEL_LINKS:
+                raise ValueError(f"shard {path} labels links {meta['links']}, expected {list(LABEL_LINKS)}")
+            parts["q"].append(arrays["q"].astype(np.float32))
+            parts["scene"].append(arrays["scene"].astype(np.int64) + len(scenes))
+            parts["link_labels"].append(arrays["link_labels"].astype(bool))
+            parts["near"].append(arrays["near"].astype(bool))
+            scenes += [Scene.from_dict(s) for s in meta["scenes"]]
+        for k, v in parts.items():
+            setattr(self, k, np.concatenate(v))
+        self.scenes = scenes
+        self.shards += list(map(Path, paths))
 
     def refresh(self, directory: str | Path, limit: int | None = None) -> int:
         """Load complete shards of `directory` not loaded yet (up to `limit` in total); returns how many."""
@@ -222,8 +230,7 @@ class CollisionData:
         ]
         if limit is not None:
             new = new[: max(0, limit - len(self.shards))]
-        for p in new:
-            self.add_shard(p)
+        self.add_shards(new)
         return len(new)
 
     @classmethod
