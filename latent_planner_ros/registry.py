@@ -19,6 +19,7 @@ TRAIN = {
 
 BENCH = {
     "collision": "latent_planner_ros.bench.collision:main",
+    "planner": "latent_planner_ros.bench.planner:main",
     "robot": "latent_planner_ros.bench.robot:main",
     "sim": "sim_bridge.bench:main",
     "vae": "latent_planner_ros.bench.vae:main",

@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 import torch
 
+os.environ.setdefault("MUJOCO_GL", "osmesa")  # headless rendering (libosmesa6, installed by make setup)
+
 
 @pytest.fixture(autouse=True)
 def _seed_everything():

@@ -116,13 +116,19 @@ class PlannerNode(Node):
 
     def _on_cloud(self, msg: PointCloud2) -> None:
         self._cloud_msg = msg
-        if self.config.amp_ls.collision_backend == "geometric":
-            try:
-                cloud = cloud_to_xyz(msg)
-            except AdapterError as err:
-                self._error(f"camera/points refused: {err}")
-                return
+        backend = self.controller.planner.backend
+        if backend.name == "none":
+            return
+        try:
+            cloud = cloud_to_xyz(msg)
+        except AdapterError as err:
+            self._error(f"camera/points refused: {err}")
+            return
+        if backend.name == "geometric":
             self.controller.set_scene(cloud, self._now(), cloud=cloud)
+        elif hasattr(backend, "set_cloud"):  # learned: the raw cloud feeds the hard check of each step
+            backend.set_cloud(cloud)
+            self.controller.set_cloud(cloud)
 
     def _on_embedding(self, msg: PointCloud2) -> None:
         try:

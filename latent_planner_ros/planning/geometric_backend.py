@@ -50,11 +50,17 @@ class GeometricBackend:
         self._hi = np.asarray(self.config.bounds_max, dtype=float)
         self.set_scene(np.zeros((0, 3)))
 
-    def set_scene(self, cloud: np.ndarray) -> None:
+    def set_check_cloud(self, cloud: np.ndarray) -> np.ndarray:
+        """Use cloud (N, 3) [m] for the hard check only (no distance field); returns its finite points."""
         cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
         cloud = cloud[np.all(np.isfinite(cloud), axis=1)]
         self.cloud = cloud
         self._tree = cKDTree(cloud) if len(cloud) else None
+        return cloud
+
+    def set_scene(self, cloud: np.ndarray) -> None:
+        """Use cloud (N, 3) [m] for both the cost (distance field) and the hard check."""
+        cloud = self.set_check_cloud(cloud)
         res = self.config.resolution
         shape = np.ceil((self._hi - self._lo) / res).astype(int) + 1
         occ = np.zeros(shape, dtype=bool)

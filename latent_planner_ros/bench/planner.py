@@ -1,0 +1,165 @@
+"""`bench planner`: AMP-LS open-loop success and time, and closed-loop tick timings.
+
+Free-space problems (random feasible start and goal configurations) and cluttered problems (random tabletop
+scenes of the held-out family, one virtual camera view each; the planner sees only the cloud). Open loop:
+success = the returned path ends within tolerance (pinocchio FK) and no densified segment of it collides
+with the scene's obstacles (exact coal check). Closed loop: `step` ticks against a perfectly tracking
+arm; tick times are the planner's compute per tick with the configured step budget.
+"""
+
+from __future__ import annotations
+
+import time
+
+import matplotlib.pyplot as plt
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from latent_planner_ros.bench.report import bench_parser, write_report
+from latent_planner_ros.models.checkpoint import CheckpointError
+from latent_planner_ros.models.vae_io import load_vae
+from latent_planner_ros.planning.amp_ls import AmpLs
+from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.backends import make_backend
+from latent_planner_ros.planning.problems import Problem, cluttered_problems, free_space_problems, path_collides
+from latent_planner_ros.robot.panda import load_panda
+
+FREE_SEED, CLUTTER_SEED = 2000, 3000
+"""Seeds of the benchmark problems (tests use other seeds; training never sees these scenes)."""
+
+
+def wilson_ci95(k: int, n: int) -> tuple[float, float]:
+    """Wilson score interval of a success rate k/n (95 %)."""
+    if n == 0:
+        return 0.0, 1.0
+    z, p = 1.96, k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return float(max(0.0, centre - half)), float(min(1.0, centre + half))
+
+
+def reached(q: np.ndarray, problem: Problem, use_orientation: bool = True) -> tuple[bool, float, float]:
+    """(within tolerance, position error [m], orientation error [rad]) of q's TCP pose (pinocchio FK)."""
+    tf = load_panda().fk(q)
+    pe = float(np.linalg.norm(tf.translation - problem.goal.position))
+    cos = (np.trace(tf.rotation.T @ problem.goal.rotation) - 1.0) / 2.0
+    oe = float(np.arccos(np.clip(cos, -1.0, 1.0)))
+    return pe < problem.goal.pos_tol and (oe < problem.goal.ori_tol or not use_orientation), pe, oe
+
+
+def open_loop(planner: AmpLs, problems: list[Problem], label: str) -> dict:
+    rows = []
+    for pr in tqdm(problems, desc=f"open loop, {label}", dynamic_ncols=True):
+        res = planner.plan(pr.start_q, pr.goal, pr.cloud if len(pr.cloud) else None)
+        ok, pe, oe = reached(res.q_path[-1], pr, planner.config.use_orientation)
+        collided = path_collides(pr, res.q_path)
+        rows.append((ok and not collided, collided, res.planning_time_s, pe, res.reason))
+    success = [r[0] for r in rows]
+    k = int(np.sum(success))
+    return {
+        "problems": len(rows),
+        "success": k / len(rows),
+        "success_ci95": wilson_ci95(k, len(rows)),
+        "collisions": int(np.sum([r[1] for r in rows])),
+        "time_ms": [1000.0 * r[2] for r in rows],
+        "open_loop_ms_median": float(1000.0 * np.median([r[2] for r in rows])),
+        "open_loop_ms_median_success": float(1000.0 * np.median([r[2] for r in rows if r[0]] or [np.nan])),
+        "final_pos_err_mm_median": float(1000.0 * np.median([r[3] for r in rows])),
+        "failures": sorted({r[4] for r in rows if not r[0]}),
+    }
+
+
+def closed_loop(planner: AmpLs, problems: list[Problem], label: str, ticks: int, iterations: int) -> dict:
+    """Tick timings [ms] and closed-loop success (within tolerance by the end, no collision)."""
+    tick_ms, successes, collisions = [], 0, 0
+    for pr in tqdm(problems, desc=f"closed loop, {label}", dynamic_ncols=True):
+        planner.reset()
+        q = pr.start_q.copy()
+        path = [q]
+        scene = pr.cloud if len(pr.cloud) else None
+        if scene is not None:
+            planner.backend.set_scene(scene)
+        for _ in range(ticks):
+            t0 = time.perf_counter()
+            out = planner.step(q, pr.goal, None, dt=0.1, max_iterations=iterations)
+            tick_ms.append(1000.0 * (time.perf_counter() - t0))
+            q = out.command
+            path.append(q)
+            if out.reached and reached(q, pr, planner.config.use_orientation)[0]:
+                break
+        collided = path_collides(pr, np.array(path))
+        collisions += collided
+        successes += reached(q, pr, planner.config.use_orientation)[0] and not collided
+    n = len(problems)
+    return {
+        "tick_ms": tick_ms,
+        "tick_ms_p50": float(np.percentile(tick_ms, 50)),
+        "tick_ms_p99": float(np.percentile(tick_ms, 99)),
+        "closed_loop_success": successes / n,
+        "closed_loop_success_ci95": wilson_ci95(successes, n),
+        "closed_loop_collisions": collisions,
+    }
+
+
+def figures(results: dict) -> dict:
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
+    for key, colour in (("free", "tab:blue"), ("cluttered", "tab:orange")):
+        r = results[key]
+        axes[0].hist(r["time_ms"], bins=30, alpha=0.6, color=colour, label=f"{key} ({r['success']:.0%} success)")
+        axes[1].hist(r["tick_ms"], bins=30, alpha=0.6, color=colour, label=key)
+    axes[0].set(xlabel="open-loop planning time [ms]", ylabel="problems", title="open loop")
+    axes[1].set(xlabel="closed-loop tick [ms]", ylabel="ticks", title="closed loop (100 ms period)")
+    for ax in axes:
+        ax.legend()
+    fig.tight_layout()
+    return {"times": fig}
+
+
+def main(argv: list[str]) -> int:
+    p = bench_parser("planner", __doc__)
+    p.add_argument("--problems", type=int, default=50, help="problems per setting (free, cluttered)")
+    p.add_argument("--backend", default="learned", help="collision backend: learned, geometric or none")
+    p.add_argument("--ticks", type=int, default=60, help="closed-loop ticks per problem (at most)")
+    p.add_argument("--threads", type=int, default=1, help="torch threads")
+    args = p.parse_args(argv)
+    torch.set_num_threads(args.threads)
+    config = AmpLsConfig(collision_backend=args.backend)
+    try:
+        vae, _ = load_vae()
+        backend = make_backend(args.backend)
+    except CheckpointError as err:
+        raise SystemExit(f"bench planner: {err}") from None
+    planner = AmpLs(vae, backend, config)
+    problems = {
+        "free": free_space_problems(args.problems, FREE_SEED),
+        "cluttered": cluttered_problems(args.problems, CLUTTER_SEED),
+    }
+    results: dict = {"backend": args.backend, "config": config.to_dict()}
+    for key, probs in problems.items():
+        results[key] = open_loop(planner, probs, key)
+        results[key].update(closed_loop(planner, probs, key, args.ticks, 1))
+    all_ticks = results["free"]["tick_ms"] + results["cluttered"]["tick_ms"]
+    results["tick_ms_p50"] = float(np.percentile(all_ticks, 50))
+    results["tick_ms_p99"] = float(np.percentile(all_ticks, 99))
+    results["open_loop_ms_median"] = float(np.median(results["free"]["time_ms"] + results["cluttered"]["time_ms"]))
+    md = [
+        "# AMP-LS planner benchmark",
+        "",
+        f"Backend `{args.backend}`, {args.problems} free-space and {args.problems} cluttered problems "
+        "(held-out scene family), tolerance 1 cm / 15 deg.",
+        "",
+        "| setting | open-loop success | 95 % CI | collisions | median time [ms] | closed-loop success "
+        "| tick p50 [ms] | tick p99 [ms] |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for key in problems:
+        r = results[key]
+        lo, hi = r["success_ci95"]
+        md.append(
+            f"| {key} | {r['success']:.0%} | {lo:.0%}-{hi:.0%} | {r['collisions']} | {r['open_loop_ms_median']:.0f} "
+            f"| {r['closed_loop_success']:.0%} | {r['tick_ms_p50']:.1f} | {r['tick_ms_p99']:.1f} |"
+        )
+    md += ["", f"All ticks: p50 {results['tick_ms_p50']:.1f} ms, p99 {results['tick_ms_p99']:.1f} ms."]
+    write_report(args.out, "planner", results, "\n".join(md), figures(results), argv)
+    return 0

@@ -1,0 +1,82 @@
+"""Learned collision backend: scene embeddings + the collision predictor (seed chapter 7, III-D).
+
+The differentiable cost is the predictor's p(collision | scene, z). The hard check of interpolated steps
+takes the predictor's decision and, when the raw cloud is known (`set_cloud`), also the geometric
+sphere-vs-cloud check, so that no accepted segment passes through an observed point (beyond the seed).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from latent_planner_ros.models.collision_predictor import CollisionPredictor
+from latent_planner_ros.models.scene_encoder import SceneEmbedding
+from latent_planner_ros.planning.geometric_backend import GeometricBackend
+from msg_adapters import AdapterError, cloud_to_fields, feature_names
+
+
+class LearnedBackend:
+    """Collision backend over a CollisionPredictor.
+
+    Args:
+        predictor: the collision network and the VAE it reads.
+        threshold: p(collision) at or above which `check` calls a configuration colliding.
+        geometric_check: also refuse configurations whose spheres contain an observed point (needs a cloud).
+    """
+
+    name = "learned"
+
+    def __init__(self, predictor: CollisionPredictor, threshold: float = 0.3, geometric_check: bool = True):
+        self.predictor = predictor
+        self.threshold = float(threshold)
+        self.geometric = GeometricBackend() if geometric_check else None
+        self.embedding: SceneEmbedding = predictor.encode(np.zeros((0, 3), dtype=np.float32))
+
+    @classmethod
+    def load(cls, stem: str | Path | None = None, **kwargs) -> LearnedBackend:
+        """The shipped predictor (or `stem`); raises CheckpointError for a missing or bad checkpoint."""
+        return cls(CollisionPredictor.load(stem), **kwargs)
+
+    # -- scene ------------------------------------------------------------------------------------
+    def set_scene(self, scene: SceneEmbedding | np.ndarray) -> None:
+        """A scene embedding (from the scene_encoder node), or a raw cloud (N, 3) [m] encoded here."""
+        if isinstance(scene, SceneEmbedding):
+            self.embedding = scene
+            return
+        cloud = np.asarray(scene, dtype=np.float32).reshape(-1, 3)
+        cloud = cloud[np.all(np.isfinite(cloud), axis=1)]
+        self.embedding = self.predictor.encode(cloud)
+        self.set_cloud(cloud)
+
+    def set_cloud(self, cloud: np.ndarray) -> None:
+        """The raw cloud (N, 3) [m] for the geometric part of the hard check."""
+        if self.geometric is not None:
+            self.geometric.set_check_cloud(cloud)
+
+    def embedding_from_msg(self, msg) -> SceneEmbedding:
+        """Decode a `scene_embedding` PointCloud2 (voxel centres + float32 fields f0..); AdapterError/ValueError."""
+        names = feature_names(msg)
+        expected = [f"f{i}" for i in range(self.predictor.net.config.encoder.channels)]
+        if names != expected:
+            raise AdapterError(f"expected feature fields f0..f{len(expected) - 1}, got {len(names)} fields")
+        data = cloud_to_fields(msg, ["x", "y", "z", *names])
+        return self.predictor.embedding_from_points(data[:, :3], data[:, 3:])
+
+    # -- queries ----------------------------------------------------------------------------------
+    def p_collision(self, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
+        """p(collision) (B,) of decoded configurations q (B, 7) with their latents z (B, L); differentiable."""
+        logits = self.predictor.link_logits_q(self.embedding, q.float(), z.float())
+        return torch.sigmoid(self.predictor.net.combine(logits)).to(z.dtype)
+
+    def check(self, q: np.ndarray) -> np.ndarray:
+        """Hard decision (M,) bool for configurations q (M, 7) [rad]."""
+        q = np.atleast_2d(np.asarray(q, dtype=np.float32))
+        with torch.no_grad():
+            p = self.predictor.p_collision_q(self.embedding, torch.from_numpy(q)).numpy()
+        hits = p >= self.threshold
+        if self.geometric is not None:
+            hits |= self.geometric.check(q)
+        return hits

@@ -1,0 +1,71 @@
+"""The learned collision backend: embedding transport, differentiable cost, hard check."""
+
+import numpy as np
+import pytest
+import torch
+
+from latent_planner_ros.models.collision_net import CollisionNet
+from latent_planner_ros.models.collision_net_config import CollisionNetConfig
+from latent_planner_ros.models.collision_predictor import CollisionPredictor
+from latent_planner_ros.models.scene_encoder import SceneEncoderConfig
+from latent_planner_ros.models.vae import RobotStateVAE
+from latent_planner_ros.models.vae_config import VaeConfig
+from latent_planner_ros.planning.learned_backend import LearnedBackend
+from latent_planner_ros.robot.limits import Q_READY
+from latent_planner_ros.robot.panda import load_panda
+from msg_adapters import AdapterError, xyz_to_cloud
+
+SMALL = CollisionNetConfig(
+    encoder=SceneEncoderConfig(
+        voxel_size=0.2, bounds_max=(1.0, 0.6, 0.75), point_hidden=8, point_features=8, conv_channels=(8, 6)
+    ),
+    hidden=(16,),
+)
+
+
+def _backend(**kwargs) -> LearnedBackend:
+    torch.manual_seed(0)
+    vae = RobotStateVAE(VaeConfig(hidden=16, layers=1))
+    return LearnedBackend(CollisionPredictor(CollisionNet(SMALL), vae), **kwargs)
+
+
+def test_embedding_message_round_trip_and_refusals(rng):
+    backend = _backend()
+    cloud = rng.uniform([0.2, -0.4, 0.0], [0.8, 0.4, 0.5], size=(300, 3)).astype(np.float32)
+    backend.set_scene(cloud)
+    centres, feats = backend.embedding.to_points()
+    msg = xyz_to_cloud(centres, features=feats)
+    back = backend.embedding_from_msg(msg)
+    torch.testing.assert_close(back.features, backend.embedding.features)
+    with pytest.raises(AdapterError, match="feature fields"):
+        backend.embedding_from_msg(xyz_to_cloud(centres, features=feats[:, :3]))
+    with pytest.raises(ValueError):
+        backend.embedding_from_msg(xyz_to_cloud(centres[:-1], features=feats[:-1]))
+
+
+def test_cost_is_differentiable_and_matches_the_predictor(rng):
+    backend = _backend()
+    backend.set_scene(rng.uniform([0.2, -0.4, 0.0], [0.8, 0.4, 0.5], size=(300, 3)))
+    z = torch.randn(5, 7, requires_grad=True)
+    q = backend.predictor.vae.decode(z).q
+    p = backend.p_collision(q, z)
+    assert p.shape == (5,) and torch.all((p > 0) & (p < 1))
+    p.sum().backward()
+    assert z.grad is not None and torch.isfinite(z.grad).all() and z.grad.abs().sum() > 0
+    expected = backend.predictor.p_collision(backend.embedding, z.detach())
+    torch.testing.assert_close(p.detach(), expected)
+
+
+def test_hard_check_refuses_observed_points_inside_the_arm_even_if_the_network_does_not():
+    backend = _backend(threshold=1.1)  # the network alone never says "collision"
+    point = load_panda().fk(Q_READY, "panda_link4").translation  # inside the elbow
+    q = np.stack([Q_READY, Q_READY + 0.0])
+    backend.set_scene(np.zeros((0, 3)))
+    assert not backend.check(q).any()
+    backend.set_scene(np.asarray(point, dtype=float).reshape(1, 3))
+    assert backend.check(q).all()
+    no_geo = _backend(threshold=1.1, geometric_check=False)
+    no_geo.set_scene(np.asarray(point, dtype=float).reshape(1, 3))
+    assert not no_geo.check(q).any()
+    always = _backend(threshold=1e-9, geometric_check=False)
+    assert always.check(q).all()
