@@ -28,6 +28,7 @@ from latent_planner_ros.planning.collision_backend import CollisionBackend
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.result import PlanResult
 from latent_planner_ros.planning.time_parameterisation import interpolate, time_parameterise
+from latent_planner_ros.robot.collision import CollisionChecker
 from latent_planner_ros.robot.limits import Q_MAX, Q_MIN, V_MAX
 from latent_planner_ros.robot.rotations import matrix_to_quat, matrix_to_rot6d, rot6d_to_matrix, rotation_angle_between
 from latent_planner_ros.robot.state import robot_state
@@ -107,6 +108,7 @@ class AmpLs:
         self.config = config or AmpLsConfig()
         self.generator = torch.Generator().manual_seed(seed)
         self.fk64 = TorchFK(dtype=torch.float64)
+        self.checker = CollisionChecker()
         self._search: _Search | None = None
 
     # -- shared pieces -----------------------------------------------------------------------------
@@ -142,6 +144,8 @@ class AmpLs:
                     continue
                 seg = interpolate(s.q_prev[b], q_np[b], cfg.interp_steps)
                 hits = self.backend.check(seg) if cfg.use_collision else np.zeros(len(seg), dtype=bool)
+                if cfg.self_check:
+                    hits |= ~self.checker.feasible(seg)
                 if hits.any():
                     i = int(np.argmax(hits)) + 1
                     s.target.scale(np.where(np.arange(len(q_np)) == b, i / cfg.interp_steps, 1.0))

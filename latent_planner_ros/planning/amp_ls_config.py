@@ -34,6 +34,8 @@ class AmpLsConfig:
     """gamma_col: a decoded state with p(collision) above this is not accepted"""
     interp_steps: int = 15
     """m: states checked on the linear interpolation of each accepted step"""
+    self_check: bool = True
+    """also check every interpolated state for self- and table collision (exact meshes; beyond the seed)"""
     target_on_fk: bool = True
     """target losses on the exact torch FK of the decoded q instead of the decoded pose"""
     n_seeds: int = 1
