@@ -7,14 +7,17 @@ from msg_adapters.errors import AdapterError
 from msg_adapters.joint_state import joint_state_to_q, q_to_joint_state
 from msg_adapters.point_cloud import cloud_to_fields, cloud_to_xyz, feature_names, xyz_to_cloud
 from msg_adapters.pose import PoseTarget, pose_stamped_to_target, target_to_pose_stamped
+from msg_adapters.scene_embedding import cloud_to_embedding, embedding_to_cloud
 from msg_adapters.trajectory import ee_path_to_path, joint_path_to_trajectory, path_to_arrays, trajectory_to_arrays
 
 __all__ = [
     "AdapterError",
     "PoseTarget",
+    "cloud_to_embedding",
     "cloud_to_fields",
     "cloud_to_xyz",
     "ee_path_to_path",
+    "embedding_to_cloud",
     "feature_names",
     "joint_path_to_trajectory",
     "joint_state_to_q",

@@ -1,0 +1,184 @@
+"""What the scene_encoder node does to a cloud before encoding it, and the state it reports. No ROS.
+
+prepare_cloud: drop non-finite points, crop to the encoder's workspace box, and voxel-downsample clouds
+larger than max_points (so encoding time stays bounded). SceneInputMonitor: the node's status (OK, WARN
+for an empty or stale input, ERROR for a refused cloud) as a level, a message and key-values.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim_bridge.cloud import voxel_downsample
+
+OK, WARN, ERROR = 0, 1, 2
+"""Diagnostic levels (as in diagnostic_msgs/DiagnosticStatus)."""
+
+MIN_VOXEL_GROWTH = 1.2
+"""Least factor by which the downsampling voxel grows while a cloud still has more than max_points points."""
+MAX_VOXEL_TRIES = 8
+
+
+@dataclass(frozen=True)
+class PreparedCloud:
+    """A cloud ready for the encoder.
+
+    Attributes:
+        points: (M, 3) float32 [m] in `world`, finite, inside [bounds_min, bounds_max), M <= max_points.
+        points_in: points received (N of the (N, 3) input, non-finite ones included).
+        points_finite: of those, points with finite coordinates.
+        points_inside: of those, points inside the workspace bounds.
+        voxel_m: edge [m] of the downsampling voxel used; 0 when the cloud was small enough as it was.
+    """
+
+    points: np.ndarray
+    points_in: int
+    points_finite: int
+    points_inside: int
+    voxel_m: float = 0.0
+
+    @property
+    def points_used(self) -> int:
+        return len(self.points)
+
+
+def crop_to_bounds(points: np.ndarray, bounds_min, bounds_max) -> np.ndarray:
+    """The points (N, 3) [m] inside the half-open box [bounds_min, bounds_max) (the voxels the encoder sees).
+
+    Compared in float32, as the encoder does.
+    """
+    low, high = np.asarray(bounds_min, dtype=np.float32), np.asarray(bounds_max, dtype=np.float32)
+    p = np.asarray(points).astype(np.float32, copy=False)
+    inside = np.all((p >= low) & (p < high), axis=1)
+    return points[inside]
+
+
+def limit_points(points: np.ndarray, max_points: int, voxel: float) -> tuple[np.ndarray, float]:
+    """At most max_points of points (M, 3) [m], and the voxel edge [m] used (0 = unchanged).
+
+    Clouds above max_points are voxel-downsampled (one point per occupied voxel, the mean of its points, as
+    in the sim's camera and collision training) with edge `voxel`, grown until they fit: by sqrt(M / max_points)
+    (right for surfaces, whose point count goes as 1 / edge^2), at least by MIN_VOXEL_GROWTH. If they still do
+    not fit after MAX_VOXEL_TRIES (or voxel is 0), evenly spaced points are kept.
+    """
+    if len(points) <= max_points:
+        return points, 0.0
+    out, used = points, 0.0
+    if voxel > 0.0:
+        size = voxel
+        for _ in range(MAX_VOXEL_TRIES):
+            out, used = voxel_downsample(points, size).astype(np.float32), size
+            if len(out) <= max_points:
+                return out, used
+            size *= max(MIN_VOXEL_GROWTH, float(np.sqrt(len(out) / max_points)))
+    keep = np.linspace(0, len(out) - 1, max_points).round().astype(np.int64)
+    return out[keep], used
+
+
+def prepare_cloud(
+    points: np.ndarray, bounds_min, bounds_max, max_points: int, voxel: float, points_in: int | None = None
+) -> PreparedCloud:
+    """Filter, crop and bound a cloud for the encoder.
+
+    Args:
+        points: (N, 3) [m] in `world`, robot points removed; NaN/inf points are dropped as absent.
+        bounds_min, bounds_max: (3,) [m] the encoder's workspace box; points outside it are dropped.
+        max_points: clouds with more points (after cropping) are downsampled to at most this many.
+        voxel: [m] edge of the first downsampling voxel (0: keep evenly spaced points instead).
+        points_in: points received, when non-finite ones were already dropped upstream (default N).
+    Raises:
+        ValueError: points is not (N, 3).
+    """
+    pts = np.asarray(points, dtype=np.float32)
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise ValueError(f"points: expected shape (N, 3), got {pts.shape}")
+    finite = pts[np.all(np.isfinite(pts), axis=1)]
+    inside = crop_to_bounds(finite, bounds_min, bounds_max)
+    used, size = limit_points(inside, max_points, voxel)
+    received = len(pts) if points_in is None else max(int(points_in), len(pts))
+    return PreparedCloud(np.ascontiguousarray(used, dtype=np.float32), received, len(finite), len(inside), size)
+
+
+@dataclass(frozen=True)
+class StatusReport:
+    """What the node publishes on ~/status: level (OK/WARN/ERROR), a message with the reason, key-values."""
+
+    level: int
+    state: str
+    message: str
+    values: dict
+
+
+def _cloud_values(points_in: int, finite=0, inside=0, used=0, voxel_m=0.0, encode_ms=0.0) -> dict:
+    """Status key-values of the last cloud: point counts, downsampling voxel [m], encoding time [ms]."""
+    return {
+        "points_in": points_in,
+        "points_finite": finite,
+        "points_inside": inside,
+        "points_used": used,
+        "downsample_voxel_m": voxel_m,
+        "encode_ms": encode_ms,
+    }
+
+
+class SceneInputMonitor:
+    """The node's state from the clouds it received: waiting, ok, empty, refused, stale.
+
+    Times are in seconds on one clock (the node's). A refused cloud is reported until the next cloud is
+    encoded; any cloud, good or refused, resets the staleness timer.
+    """
+
+    def __init__(self, stale_after_s: float):
+        self.stale_after_s = stale_after_s
+        self.last_arrival: float | None = None
+        self.state, self.level, self.message = "waiting", WARN, "waiting for camera/points"
+        self.last_error = ""
+        self.encoded = 0
+        self.refused = 0
+        self.values = _cloud_values(points_in=0)
+
+    def on_encoded(self, now: float, cloud: PreparedCloud, encode_ms: float) -> None:
+        """A cloud was encoded (and published) in encode_ms [ms]."""
+        self.last_arrival = now
+        self.encoded += 1
+        self.values = _cloud_values(
+            cloud.points_in, cloud.points_finite, cloud.points_inside, cloud.points_used, cloud.voxel_m, encode_ms
+        )
+        if cloud.points_used == 0:
+            self.state, self.level = "empty", WARN
+            self.message = (
+                f"empty cloud: no finite points inside the workspace bounds ({cloud.points_in} received); "
+                "encoded as an empty scene"
+            )
+        else:
+            self.state, self.level = "ok", OK
+            self.message = f"encoded {cloud.points_used} points"
+            if cloud.voxel_m > 0.0:
+                self.message += f" (downsampled from {cloud.points_inside}, voxel {cloud.voxel_m * 1000:.0f} mm)"
+
+    def on_refused(self, now: float, reason: str, points_in: int = 0) -> None:
+        """A cloud (of points_in points, as far as known) was refused (malformed); nothing was published."""
+        self.last_arrival = now
+        self.refused += 1
+        self.values = _cloud_values(points_in)
+        self.last_error = reason
+        self.state, self.level, self.message = "refused", ERROR, reason
+
+    def report(self, now: float) -> StatusReport:
+        """The status at time now [s]."""
+        state, level, message = self.state, self.level, self.message
+        age = None if self.last_arrival is None else now - self.last_arrival
+        if age is not None and age > self.stale_after_s:
+            state, level = "stale", max(level, WARN)
+            message = f"stale: no cloud for {age:.1f} s (last: {message})"
+        values = {
+            "state": state,
+            **self.values,
+            "cloud_age_s": -1.0 if age is None else age,
+            "clouds_encoded": self.encoded,
+            "clouds_refused": self.refused,
+            "last_error": self.last_error,
+        }
+        return StatusReport(level, state, message, values)
