@@ -1,0 +1,193 @@
+"""``python -m latent_planner_ros launch``: start the node suite as processes, without ``ros2 launch``.
+
+    python -m latent_planner_ros launch [--scenario NAME|FILE] [--with-ompl] [--headless] [--domain-id N]
+        [--nodes a,b,c] [--duration S] [--param NODE:NAME:=VALUE ...] [--startup-timeout S]
+
+Starts each node (default: sim, scene_encoder, planner) as ``python -m latent_planner_ros run <node>``
+with its ``config/<node>.yaml`` and ``use_sim_time:=true``, all on one ROS_DOMAIN_ID, each in its own
+process group; echoes their output prefixed with ``[node]``; waits until every node is up (in the ROS
+graph with a publisher of its own, i.e. its start-up work is done); then runs until Ctrl-C / SIGTERM,
+until ``--duration`` seconds have passed, or until a node exits, and stops the suite (SIGINT, then
+SIGTERM, then SIGKILL; a second Ctrl-C skips the grace periods).
+
+``--headless``: the suite never opens a viewer and never records (the sim's ``--record`` is for
+``run sim``); the flag makes MuJoCo render offscreen with osmesa (unless MUJOCO_GL is set) so the
+suite runs the same on a desktop as on a server.
+
+Exit codes: 0 after ``--duration`` or a requested stop; 1 when a node failed (died during start-up,
+was not up in time, or exited while the suite ran; the message names it); 2 on bad arguments.
+A ROS 2 install can use ``ros2 launch latent_planner_ros latent_planner.launch.py`` instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+import threading
+
+from latent_planner_ros.node_suite import DEFAULT_NODES, SuiteError, parse_param, suite_env, suite_specs
+from latent_planner_ros.registry import NODES
+from latent_planner_ros.supervisor import StartupError, Supervisor, describe_exit
+
+DEFAULT_SCENARIO = "conveyor"
+STARTUP_TIMEOUT_S = 90.0
+"""Default longest wait [s] for every node to be up (the planner loads torch models)."""
+
+
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="latent-planner launch", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--scenario",
+        default=DEFAULT_SCENARIO,
+        metavar="NAME|FILE",
+        help=f"the sim's scenario: a name in config/scenarios or a YAML file (default {DEFAULT_SCENARIO})",
+    )
+    parser.add_argument("--with-ompl", action="store_true", help="also start the ompl_planner baseline node")
+    parser.add_argument("--headless", action="store_true", help="no viewer or recording; render offscreen (osmesa)")
+    parser.add_argument("--domain-id", type=int, metavar="N", help="ROS_DOMAIN_ID of all nodes (default: inherited)")
+    parser.add_argument(
+        "--nodes",
+        default=",".join(DEFAULT_NODES),
+        metavar="a,b,c",
+        help=f"comma-separated nodes to start, in order (default {','.join(DEFAULT_NODES)}; "
+        f"available: {','.join(sorted(NODES))})",
+    )
+    parser.add_argument(
+        "--duration", type=float, metavar="S", help="stop the suite S seconds after every node is up (exit 0)"
+    )
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NODE:NAME:=VALUE",
+        help="a parameter for one node, after its params file (repeatable), e.g. sim:real_time_factor:=0",
+    )
+    parser.add_argument(
+        "--startup-timeout",
+        type=float,
+        default=STARTUP_TIMEOUT_S,
+        metavar="S",
+        help=f"longest wait for every node to be up (default {STARTUP_TIMEOUT_S:g} s)",
+    )
+    args = parser.parse_args(argv)
+    if args.domain_id is not None and not 0 <= args.domain_id <= 232:
+        parser.error(f"--domain-id: expected 0..232, got {args.domain_id}")
+    if args.duration is not None and args.duration < 0:
+        parser.error("--duration must not be negative")
+    if args.startup_timeout <= 0:
+        parser.error("--startup-timeout must be positive")
+    return args
+
+
+def _scenario_param(scenario: str) -> str:
+    """The sim's ``scenario`` parameter: the name as given, or the file's absolute path. Raises SuiteError."""
+    from sim_bridge.scenario import ScenarioError
+    from sim_bridge.scenario_files import find_scenario_file
+
+    try:
+        path = find_scenario_file(scenario)
+    except ScenarioError as err:
+        raise SuiteError(f"--scenario: {err}") from None
+    return scenario if path.stem == scenario else str(path.resolve())
+
+
+def _node_list(args: argparse.Namespace) -> list[str]:
+    nodes = [n.strip() for n in args.nodes.split(",") if n.strip()]
+    if not nodes:
+        raise SuiteError("--nodes: no node given")
+    unknown = [n for n in nodes if n not in NODES]
+    if unknown:
+        raise SuiteError(f"--nodes: unknown node {unknown[0]!r}; choose from: {', '.join(sorted(NODES))}")
+    if len(set(nodes)) != len(nodes):
+        raise SuiteError(f"--nodes: a node is named twice in {args.nodes!r}")
+    if args.with_ompl:
+        if "ompl_planner" not in NODES:
+            raise SuiteError(
+                "--with-ompl: the ompl_planner node is not available in this installation "
+                f"(registered nodes: {', '.join(sorted(NODES))})"
+            )
+        if "ompl_planner" not in nodes:
+            nodes.append("ompl_planner")
+    return nodes
+
+
+def build_suite(args: argparse.Namespace) -> Supervisor:
+    """The Supervisor for the parsed arguments. Raises SuiteError with a message for the user."""
+    nodes = _node_list(args)
+    params: dict[str, list[str]] = {}
+    if "sim" in nodes:
+        params["sim"] = [f"scenario:={_scenario_param(args.scenario)}"]
+    for text in args.param:
+        node, assignment = parse_param(text)
+        if node not in nodes:
+            raise SuiteError(f"--param {text!r}: node {node!r} is not in the suite ({', '.join(nodes)})")
+        params.setdefault(node, []).append(assignment)
+    env = suite_env(args.domain_id, args.headless)
+    return Supervisor(suite_specs(nodes, params, env))
+
+
+def run_suite(suite: Supervisor, args: argparse.Namespace, stop: threading.Event, force: threading.Event) -> int:
+    """Start, wait until up, watch, stop. Returns the exit code (see the module docstring)."""
+    from latent_planner_ros.nodes.graph_probe import GraphProbe
+
+    names = [s.name for s in suite.specs]
+    domain = args.domain_id if args.domain_id is not None else os.environ.get("ROS_DOMAIN_ID", "0")
+    suite.log(f"starting {', '.join(names)} on ROS_DOMAIN_ID={domain}")
+    code = 0
+    try:
+        suite.start()
+        with GraphProbe(domain_id=args.domain_id) as probe:
+            ready = suite.wait_ready(probe.ready_nodes, args.startup_timeout, stop)
+        if ready:
+            until = f"for {args.duration:g} s" if args.duration is not None else "until Ctrl-C"
+            suite.log(f"all {len(names)} nodes are up; running {until}")
+            exited = suite.watch(stop, args.duration)
+            if exited is not None:
+                name, returncode = exited
+                suite.log(f"error: node {name} exited unexpectedly with {describe_exit(returncode)}")
+                code = 1
+    except StartupError as err:
+        suite.log(f"error: {err}")
+        code = 1
+    finally:
+        running = [n for n in suite.pids if n not in suite.exited()]
+        if running:
+            suite.log(f"stopping {', '.join(running)}")
+        codes = suite.stop(force=force)
+        suite.log("stopped: " + ", ".join(f"{n} ({describe_exit(c)})" for n, c in codes.items()))
+    return code
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point: `argv` are the arguments after ``launch``. Returns the exit code."""
+    args = parse_args(sys.argv[1:] if argv is None else list(argv))
+    try:
+        suite = build_suite(args)
+    except SuiteError as err:
+        print(f"latent-planner launch: error: {err}", file=sys.stderr)
+        return 2
+
+    stop, force = threading.Event(), threading.Event()
+
+    def on_signal(signum, frame) -> None:
+        if stop.is_set():
+            force.set()
+            suite.log(f"{signal.Signals(signum).name} again: killing the suite")
+        else:
+            stop.set()
+            suite.log(f"{signal.Signals(signum).name}: stopping the suite")
+
+    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        return run_suite(suite, args, stop, force)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
