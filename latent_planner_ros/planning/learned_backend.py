@@ -15,7 +15,7 @@ import torch
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
 from latent_planner_ros.models.scene_encoder import SceneEmbedding
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
-from msg_adapters import AdapterError, cloud_to_fields, feature_names
+from msg_adapters import cloud_to_embedding
 
 
 class LearnedBackend:
@@ -58,12 +58,8 @@ class LearnedBackend:
 
     def embedding_from_msg(self, msg) -> SceneEmbedding:
         """Decode a `scene_embedding` PointCloud2 (voxel centres + float32 fields f0..); AdapterError/ValueError."""
-        names = feature_names(msg)
-        expected = [f"f{i}" for i in range(self.predictor.net.config.encoder.channels)]
-        if names != expected:
-            raise AdapterError(f"expected feature fields f0..f{len(expected) - 1}, got {len(names)} fields")
-        data = cloud_to_fields(msg, ["x", "y", "z", *names])
-        return self.predictor.embedding_from_points(data[:, :3], data[:, 3:])
+        centres, features = cloud_to_embedding(msg)
+        return self.predictor.embedding_from_points(centres, features)
 
     # -- queries ----------------------------------------------------------------------------------
     def p_collision(self, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
