@@ -1,5 +1,6 @@
 """The command-line entry point dispatches to the registered commands and refuses unknown ones."""
 
+import importlib
 import subprocess
 import sys
 
@@ -18,11 +19,17 @@ def test_unknown_names_are_refused():
         assert proc.returncode == 2 and "invalid choice" in proc.stderr
 
 
-def test_registered_targets_name_modules_and_functions():
+def test_registered_targets_import_and_are_callable():
     for table in (NODES, TRAIN, BENCH):
         for target in table.values():
             module, func = target.split(":")
-            assert module and func.isidentifier()
+            assert callable(getattr(importlib.import_module(module), func)), target
+
+
+def test_every_command_has_help():
+    for argv in (["bench", "planner", "--help"], ["train", "vae", "--help"], ["launch", "--help"]):
+        proc = subprocess.run([sys.executable, "-m", "latent_planner_ros", *argv], capture_output=True, text=True)
+        assert proc.returncode == 0 and "usage" in proc.stdout.lower(), (argv, proc.stderr[-500:])
 
 
 def test_console_script_is_installed():
