@@ -10,6 +10,7 @@ NODES = {
     "scene_encoder": "latent_planner_ros.nodes.scene_encoder:main",
     "sim": "sim_bridge.node:main",
     "planner": "latent_planner_ros.nodes.planner:main",
+    "ompl_planner": "latent_planner_ros.nodes.ompl_planner:main",
 }
 
 TRAIN = {

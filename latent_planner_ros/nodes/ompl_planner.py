@@ -1,0 +1,236 @@
+"""ompl_planner node: the OMPL baseline behind the planner node's GetPlan contract, with optional execution.
+
+Subscribes joint_states and camera/points. Service ~/plan (nav_msgs/GetPlan): `goal` = TCP target pose,
+`start` ignored (the current joint state is the start), `tolerance` = position tolerance [m] (0: the
+configured one); the response is the end-effector path, empty on failure. Publishes ~/trajectory (the joint
+trajectory, same header stamp as the returned Path), ~/markers, ~/status (state, reason of the last failure,
+timings) and, with `execute`, joint_command at `command_rate_hz` along the trajectory.
+Parameters: OmplPlannerNodeConfig (config/ompl_planner.yaml), validated; a bad value is refused with a reason.
+
+    python -m latent_planner_ros run ompl_planner [--ros-args --params-file config/ompl_planner.yaml]
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from nav_msgs.msg import Path
+from nav_msgs.srv import GetPlan
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.executors import ExternalShutdownException
+from rclpy.logging import get_logger
+from rclpy.node import Node
+from sensor_msgs.msg import JointState, PointCloud2
+from trajectory_msgs.msg import JointTrajectory
+from visualization_msgs.msg import MarkerArray
+
+from latent_planner_ros.nodes.markers import path_markers
+from latent_planner_ros.nodes.ompl_planner_config import OmplPlannerNodeConfig
+from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.ompl_baseline import OmplPlanner
+from latent_planner_ros.planning.trajectory_stream import TrajectoryStreamer
+from msg_adapters import (
+    AdapterError,
+    cloud_to_xyz,
+    ee_path_to_path,
+    joint_path_to_trajectory,
+    joint_state_to_q,
+    pose_stamped_to_target,
+    q_to_joint_state,
+)
+from sim_bridge.params import ConfigError, from_params, to_params
+
+OK, WARN = 0, 1
+"""Diagnostic levels (as in diagnostic_msgs/DiagnosticStatus)."""
+
+
+class OmplPlannerNode(Node):
+    def __init__(self):
+        super().__init__("ompl_planner")
+        names = to_params(OmplPlannerNodeConfig())
+        for name, value in names.items():
+            self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
+        self.config = from_params(OmplPlannerNodeConfig, {n: self.get_parameter(n).value for n in names})
+        self.planner = OmplPlanner(self.config.ompl)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._q: np.ndarray | None = None
+        self._q_time = -math.inf
+        self._cloud: np.ndarray | None = None
+        self._streamer: TrajectoryStreamer | None = None
+        self._state, self._last_error = "idle", ""
+        self._last: dict[str, object] = {}
+
+        self.pub_command = self.create_publisher(JointState, "joint_command", 10)
+        self.pub_traj = self.create_publisher(JointTrajectory, "~/trajectory", 10)
+        self.pub_markers = self.create_publisher(MarkerArray, "~/markers", 10)
+        self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
+        self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
+        self.create_subscription(PointCloud2, "camera/points", self._on_cloud, 2)
+        self.create_service(GetPlan, "~/plan", self._on_plan)
+        self.create_timer(1.0 / self.config.command_rate_hz, self._on_tick)
+        self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)
+        self.get_logger().info(
+            f"OMPL baseline ready: {self.planner.config.planner}, octree {self.config.ompl.octree_resolution} m, "
+            f"execute={self.config.execute}"
+        )
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _error(self, text: str) -> None:
+        self._last_error = text
+        self.get_logger().warning(text, throttle_duration_sec=1.0)
+
+    # -- parameters ------------------------------------------------------------------------------
+    def _on_set_parameters(self, params) -> SetParametersResult:
+        try:
+            config = from_params(OmplPlannerNodeConfig, {p.name: p.value for p in params}, base=self.config)
+            planner = OmplPlanner(config.ompl)
+        except (ConfigError, ValueError, TypeError) as err:
+            return SetParametersResult(successful=False, reason=str(err))
+        self.config, self.planner = config, planner
+        return SetParametersResult(successful=True)
+
+    # -- inputs -------------------------------------------------------------------------------------
+    def _on_joint_states(self, msg: JointState) -> None:
+        try:
+            self._q, _ = joint_state_to_q(msg)
+        except AdapterError as err:
+            self._error(f"joint_states refused: {err}")
+            return
+        self._q_time = self._now()
+
+    def _on_cloud(self, msg: PointCloud2) -> None:
+        if msg.header.frame_id not in ("", self.config.frame_id):
+            self._error(f"camera/points refused: frame {msg.header.frame_id!r}, expected {self.config.frame_id!r}")
+            return
+        try:
+            self._cloud = cloud_to_xyz(msg)
+        except AdapterError as err:
+            self._error(f"camera/points refused: {err}")
+
+    def _fresh_q(self) -> np.ndarray | None:
+        if self._q is None or self._now() - self._q_time > self.config.stale_joint_states_s:
+            return None
+        return self._q.copy()
+
+    # -- planning -----------------------------------------------------------------------------------
+    def _on_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
+        response.plan = Path()
+        response.plan.header.frame_id = self.config.frame_id
+        response.plan.header.stamp = self.get_clock().now().to_msg()
+        q = self._fresh_q()
+        if q is None:
+            self._fail("plan refused: no fresh joint states")
+            return response
+        try:
+            target = pose_stamped_to_target(request.goal, expected_frame=self.config.frame_id)
+            tol = float(request.tolerance)
+            if not math.isfinite(tol) or tol < 0:
+                raise ValueError(f"tolerance must be a finite number >= 0, got {tol}")
+            pos_tol = tol if tol > 0 else self.config.pos_tol
+            ori_tol = math.radians(self.config.ori_tol_deg)
+            goal = Goal(target.position, target.rotation, pos_tol=pos_tol, ori_tol=ori_tol)
+        except (AdapterError, ValueError) as err:
+            self._fail(f"plan refused: {err}")
+            return response
+        if self._cloud is None and self.config.require_cloud:
+            self._fail("plan refused: no point cloud received yet")
+            return response
+        self._streamer = None  # a valid new request stops the execution of the previous plan
+        self._state = "planning"
+        result = self.planner.plan(q, goal, self._cloud)
+        self._last = {
+            "last_success": result.success,
+            "last_reason": result.reason,
+            "planning_time_s": result.planning_time_s,
+            **{k: v for k, v in result.timings.items() if k != "total_s"},
+            "states_checked": result.iterations,
+            "cloud_points": result.info.get("cloud_points", 0),
+            "goal_states": result.info.get("goal_states", 0),
+            "path_states": len(result.q_path),
+        }
+        self.get_logger().info(
+            f"plan: {'success' if result.success else 'failure'} ({result.reason}) in {result.planning_time_s:.3f} s, "
+            f"{len(result.q_path)} states, error {result.final_pos_err_m * 1000:.1f} mm"
+        )
+        if not result.success:
+            self._fail(f"plan failed: {result.reason}")
+            return response
+        stamp = response.plan.header.stamp
+        frame = self.config.frame_id
+        response.plan = ee_path_to_path(result.ee_positions, result.ee_quaternions, frame_id=frame, stamp=stamp)
+        self.pub_traj.publish(joint_path_to_trajectory(result.q_path, result.times, stamp=stamp))
+        self.pub_markers.publish(path_markers(result.ee_positions, goal.position, stamp, frame_id=frame))
+        self._state = "planned"
+        if self.config.execute:
+            self._streamer = TrajectoryStreamer(result.q_path, result.times, period=1.0 / self.config.command_rate_hz)
+            self._state = "executing"
+        return response
+
+    def _fail(self, reason: str) -> None:
+        self._state = "failed"
+        self._error(reason)
+
+    # -- execution ----------------------------------------------------------------------------------
+    def _on_tick(self) -> None:
+        if self._streamer is None:
+            return
+        q = self._fresh_q()
+        if q is None:
+            self._error("execution paused: no fresh joint states")
+            return
+        command = self._streamer.next_command(q)
+        if command is None:
+            self._streamer = None
+            self._state = "executed"
+            return
+        self.pub_command.publish(q_to_joint_state(command, stamp=self.get_clock().now().to_msg()))
+
+    def _publish_status(self) -> None:
+        level = WARN if self._state == "failed" else OK
+        status = DiagnosticStatus(level=bytes([level]), name="ompl_planner", hardware_id=self.planner.name)
+        status.message = f"{self._state}: {self._last_error}" if self._state == "failed" else self._state
+        values = {
+            "state": self._state,
+            "executing": self._streamer is not None,
+            "planner": self.planner.name,
+            "last_error": self._last_error,
+            **self._last,
+        }
+        status.values = [
+            KeyValue(key=k, value=f"{v:.6g}" if isinstance(v, float) else str(v)) for k, v in values.items()
+        ]
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.pub_status.publish(msg)
+
+
+def main() -> int:
+    rclpy.init(args=sys.argv)
+    node = None
+    try:
+        try:
+            node = OmplPlannerNode()
+        except (ConfigError, ValueError) as err:
+            get_logger("ompl_planner").error(f"cannot start: {err}")
+            return 2
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception:
+        if rclpy.ok():  # a real error; after SIGTERM/SIGINT a callback may race the shutdown: ignore that
+            raise
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

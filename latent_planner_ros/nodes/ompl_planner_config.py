@@ -1,0 +1,41 @@
+"""Parameters of the ompl_planner node: one dataclass, mapped 1:1 onto ROS parameters (config/ompl_planner.yaml)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from latent_planner_ros.planning.ompl_baseline_config import OmplConfig
+from sim_bridge.params import ConfigError, check_number
+
+
+@dataclass
+class OmplPlannerNodeConfig:
+    execute: bool = False
+    """stream joint_command along each successful plan"""
+    command_rate_hz: float = 10.0
+    """execution: joint_command rate [Hz]"""
+    stale_joint_states_s: float = 0.5
+    """joint states older than this [s] refuse plans and pause execution"""
+    require_cloud: bool = True
+    """refuse plans until a point cloud has arrived (False: plan against an empty occupancy map)"""
+    pos_tol: float = 0.01
+    """goal position tolerance [m] when a request's tolerance is 0"""
+    ori_tol_deg: float = 15.0
+    """goal orientation tolerance [deg]"""
+    frame_id: str = "world"
+    """frame of goals, clouds and returned paths (the Panda base)"""
+    status_rate_hz: float = 2.0
+    """status publishing rate [Hz]"""
+    ompl: OmplConfig = field(default_factory=OmplConfig)
+
+    def __post_init__(self) -> None:
+        for name in ("execute", "require_cloud"):
+            if not isinstance(getattr(self, name), bool):
+                raise ConfigError(f"{name}: expected true or false, got {getattr(self, name)!r}")
+        check_number("command_rate_hz", self.command_rate_hz, 0.0, 100.0, open_low=True)
+        check_number("stale_joint_states_s", self.stale_joint_states_s, 0.0, 60.0, open_low=True)
+        check_number("pos_tol", self.pos_tol, 0.0, 1.0, open_low=True)
+        check_number("ori_tol_deg", self.ori_tol_deg, 0.0, 180.0, open_low=True)
+        check_number("status_rate_hz", self.status_rate_hz, 0.0, 100.0, open_low=True)
+        if not (isinstance(self.frame_id, str) and self.frame_id):
+            raise ConfigError(f"frame_id: expected a non-empty string, got {self.frame_id!r}")
