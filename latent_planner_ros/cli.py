@@ -44,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
         p = sub.add_parser(name, help=helptext, add_help=False)
         p.add_argument("target", choices=sorted(choices), metavar="{" + ",".join(sorted(choices)) + "}")
     sub.add_parser("launch", help="start the node suite", add_help=False)
-    sub.add_parser("demo", help="run the main job")
+    sub.add_parser("demo", help="run the main job", add_help=False)
     sub.add_parser("info", help="print a summary of the robot model")
     args, rest = parser.parse_known_args(argv)
 

@@ -1,70 +1,196 @@
-"""The README's main job (`make demo`).
+"""The README's main job (``make demo``): the arm tracks a moving target on a conveyor, through the ROS graph.
 
-Until the closed-loop suite exists this runs the most complete pipeline available: it prints the robot
-model, starts the `robot_info` node as its own process, and receives what it publishes over ROS 2
-(robot_description and joint_states), as any other node of the suite would.
+    python -m latent_planner_ros demo [--duration S] [--out DIR] [--seed N] [--backend geometric|learned]
+
+Starts the node suite as processes (``sim`` with the conveyor scenario, ``planner`` chasing the sim's
+``target_pose``, and ``scene_encoder`` when the planner's collision backend is the learned one), resets the
+scene, enables the planner and watches ``--duration`` seconds of simulated time with a live status line.
+Then it stops the suite and prints a summary: reached and tracked (end effector within 3 cm and 20 deg of the
+moving target, then staying there), time to reach, share of time tracking, the arm's minimum distance to the
+scene objects (ground truth from the sim), contacts, and the planner's tick timings. ``--out`` receives
+``summary.json``, ``tracking.png`` (end effector vs target x/y/z over time), ``scene.png`` (a strip of
+pictures rendered from the logged joint states), ``trial.npz`` (the time series) and ``nodes.log``.
+
+Exit code 0 when the run completed (whether or not the target was reached: the summary says), 1 when the
+suite failed (a node died or did not come up), 130 when interrupted.
 """
 
 from __future__ import annotations
 
+import argparse
+import json
 import os
-import subprocess
+import signal
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from latent_planner_ros.robot.summary import robot_summary
-
-TIMEOUT_S = 30.0
+DEFAULT_OUT = Path("demo_out")
 
 
-def receive_from_robot_info(timeout_s: float = TIMEOUT_S) -> tuple[str, np.ndarray]:
-    """Start robot_info in a subprocess and return (description, q (7,)) received from it."""
-    import rclpy
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from sensor_msgs.msg import JointState
-    from std_msgs.msg import String
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    p = argparse.ArgumentParser(
+        prog="latent-planner demo", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    p.add_argument("--duration", type=float, default=30.0, metavar="S", help="simulated seconds (default 30)")
+    p.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output directory (default {DEFAULT_OUT}/)")
+    p.add_argument("--seed", type=int, default=0, help="scenario seed: target and obstacle layout (default 0)")
+    p.add_argument(
+        "--backend",
+        choices=("geometric", "learned"),
+        help="the planner's collision backend (default: config/planner.yaml's)",
+    )
+    p.add_argument(
+        "--real-time-factor", type=float, default=1.0, metavar="F", help="simulated s per wall s (default 1)"
+    )
+    p.add_argument("--domain-id", type=int, metavar="N", help="ROS_DOMAIN_ID (default: the environment's)")
+    p.add_argument("--frames", type=int, default=6, help="pictures in the scene strip (default 6; 0 = none)")
+    args = p.parse_args(argv)
+    if not 0 < args.duration <= 3600:
+        p.error("--duration must be in (0, 3600] s")
+    if not 0.1 <= args.real_time_factor <= 10:
+        p.error("--real-time-factor must be in [0.1, 10]")
+    if args.domain_id is not None and not 0 <= args.domain_id <= 232:
+        p.error("--domain-id must be in 0..232")
+    return args
 
-    from msg_adapters import joint_state_to_q
 
-    got: dict = {}
-    proc = subprocess.Popen([sys.executable, "-m", "latent_planner_ros", "run", "robot_info"], env=os.environ.copy())
-    rclpy.init()
-    try:
-        node = rclpy.create_node("demo_listener")
-        latched = QoSProfile(
-            depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE
+def say(text: str) -> None:
+    print(f"[demo] {text}", flush=True)
+
+
+class StatusLine:
+    """The live one-line status: rewritten in place on a terminal, a line every 5 s of sim time otherwise."""
+
+    def __init__(self, duration_s: float, stream=None):
+        from latent_planner_ros.robot.panda import load_panda
+
+        self.duration_s = duration_s
+        self.stream = stream or sys.stdout
+        self.tty = self.stream.isatty()
+        self.panda = load_panda()
+        self._next_line = 0.0
+        self._width = 0
+
+    def __call__(self, t: float, live) -> None:
+        dist = "EE-target   n/a  "
+        if live.q is not None and live.target_position is not None:
+            err = np.linalg.norm(self.panda.fk(live.q).translation - live.target_position)
+            dist = f"EE-target {100 * err:5.1f} cm"
+        tick = f"{live.tick_ms:5.1f} ms" if np.isfinite(live.tick_ms) else "  n/a   "
+        text = (
+            f"[demo] t {t:5.1f}/{self.duration_s:g} s | {dist} | planner {live.state:<9} | tick {tick} | "
+            f"contacts {live.contacts}"
         )
-        node.create_subscription(String, "robot_description", lambda m: got.setdefault("description", m.data), latched)
-        node.create_subscription(JointState, "joint_states", lambda m: got.setdefault("q", joint_state_to_q(m)[0]), 10)
-        deadline = time.monotonic() + timeout_s
-        while len(got) < 2 and time.monotonic() < deadline:
-            if proc.poll() is not None:
-                raise RuntimeError(f"robot_info exited early with code {proc.returncode}")
-            rclpy.spin_once(node, timeout_sec=0.1)
-        node.destroy_node()
+        if self.tty:
+            self.stream.write("\r" + text.ljust(self._width))
+            self._width = len(text)
+            self.stream.flush()
+        elif t >= self._next_line:
+            self._next_line = t + 5.0
+            print(text, file=self.stream, flush=True)
+
+    def done(self) -> None:
+        if self.tty and self._width:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def _raise_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+def run(args: argparse.Namespace) -> int:
+    from latent_planner_ros.evaluation.conveyor_suite import ConveyorSuite, StartupError, SuiteFailed, plan_suite
+    from latent_planner_ros.evaluation.trial import format_summary, plot_tracking, tracking, trial_metrics
+    from latent_planner_ros.node_suite import SuiteError
+
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        plan = plan_suite(args.backend, seed=args.seed, real_time_factor=args.real_time_factor)
+    except SuiteError as err:
+        print(f"[demo] error: {err}", file=sys.stderr)
+        return 2
+    domain = args.domain_id if args.domain_id is not None else os.environ.get("ROS_DOMAIN_ID", "0")
+    say(f"conveyor scenario (seed {plan.seed}), {args.duration:g} s of simulated time; planner backend {plan.backend}")
+    for note in plan.notes:
+        say(note)
+    log_path = out / "nodes.log"
+    say(f"starting {', '.join(plan.nodes)} on ROS_DOMAIN_ID={domain} (node output: {log_path})")
+    status = StatusLine(args.duration)
+    suite = ConveyorSuite(plan, log_path=log_path, domain_id=args.domain_id)
+    t_start = time.monotonic()
+    try:
+        up_s = suite.start()
+        say(f"all nodes up after {up_s:.1f} s; resetting the scene and enabling the planner")
+        log = suite.run_trial(args.duration, progress=status)
+        status.done()
+    except (StartupError, SuiteFailed) as err:
+        status.done()
+        print(f"[demo] error: {err}", file=sys.stderr)
+        if isinstance(err, SuiteFailed):
+            tail = err.tail
+        else:
+            tail = suite.supervisor.tail(err.name) if err.name in suite.supervisor.pids else []
+        for line in tail[-15:]:
+            print(f"[{err.name}] {line}", file=sys.stderr)
+        print(f"[demo] full node output: {log_path}", file=sys.stderr)
+        return 1
+    except (RuntimeError, TimeoutError) as err:
+        status.done()
+        print(f"[demo] error: {err} (node output: {log_path})", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        status.done()
+        say("interrupted: stopping the suite")
+        return 130
     finally:
-        rclpy.try_shutdown()
-        proc.terminate()
+        suite.stop()
+    run_s = time.monotonic() - t_start
+
+    track = tracking(log)
+    metrics = trial_metrics(log, track=track)
+    np.savez_compressed(out / "trial.npz", **{k: np.asarray(v) for k, v in vars(log).items()})
+    pictures = {}
+    fig = plot_tracking(track, metrics, title=f"conveyor, seed {plan.seed}: end effector vs moving target")
+    fig.savefig(out / "tracking.png", dpi=110)
+    pictures["tracking"] = str(out / "tracking.png")
+    if args.frames > 0 and len(track.t):
         try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-    if len(got) < 2:
-        raise TimeoutError(f"nothing received from robot_info within {timeout_s:.0f} s (got {sorted(got)})")
-    return got["description"], got["q"]
+            from latent_planner_ros.evaluation.pictures import render_strip
+            from sim_bridge.scenario_files import load_scenario
+
+            scenario = load_scenario("conveyor", seed=plan.seed)
+            pictures["scene"] = str(render_strip(scenario, track, log.scenario_start_s, out / "scene.png", args.frames))
+        except RuntimeError as err:  # no OpenGL: the summary still stands
+            say(f"no scene pictures: {err}")
+    summary = {
+        "scenario": "conveyor",
+        "seed": plan.seed,
+        "backend": plan.backend,
+        "configured_backend": plan.configured_backend,
+        "nodes": list(plan.nodes),
+        "real_time_factor": plan.real_time_factor,
+        "wall_s": run_s,
+        **metrics,
+        "pictures": pictures,
+    }
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    print()
+    print(f"Summary ({args.duration:g} s of simulated time, {run_s:.0f} s wall, backend {plan.backend})")
+    print(format_summary(metrics))
+    print(f"pictures         {', '.join(pictures.values())}")
+    print(f"all figures      {out / 'summary.json'}")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
-    print(robot_summary())
-    print("\n[demo] starting the robot_info node and listening to it over ROS 2 ...")
+    args = parse_args(sys.argv[1:] if argv is None else list(argv))
+    previous = signal.signal(signal.SIGTERM, _raise_interrupt)  # stop the suite on SIGTERM too
     try:
-        description, q = receive_from_robot_info()
-    except (RuntimeError, TimeoutError) as e:
-        print(f"[demo] failed: {e}", file=sys.stderr)
-        return 1
-    print(f"[demo] robot_description received ({len(description.splitlines())} lines)")
-    print(f"[demo] joint_states received: q = {np.round(q, 3).tolist()} rad")
-    print("[demo] done")
-    return 0
+        return run(args)
+    finally:
+        signal.signal(signal.SIGTERM, previous)

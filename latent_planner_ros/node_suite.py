@@ -3,7 +3,7 @@
 A node ``<name>`` of ``registry.NODES`` runs as::
 
     <python> -m latent_planner_ros run <name> --ros-args --params-file <config>/<name>.yaml \
-        -p use_sim_time:=true [-p key:=value ...]
+        -p use_sim_time:=true [-p key:=value ...] [other ROS arguments, e.g. -r goal_pose:=target_pose]
 
 where ``<config>`` is the first directory of :func:`config_dirs` that holds ``<name>.yaml`` (no params
 file if none does). Every process gets the same ``ROS_DOMAIN_ID`` (the environment's unless given).
@@ -75,8 +75,10 @@ def node_argv(
     params_file: Path | None = None,
     use_sim_time: bool = True,
     python: str = sys.executable,
+    ros_args: Sequence[str] = (),
 ) -> tuple[str, ...]:
-    """The command line that runs `node` with a params file and ``-p`` arguments (``name:=value``)."""
+    """The command line that runs `node` with a params file, ``-p`` arguments (``name:=value``) and further
+    ROS arguments (`ros_args`, e.g. ``("-r", "goal_pose:=target_pose")``, appended as given)."""
     if node not in NODES:
         raise SuiteError(f"unknown node {node!r}; choose one of: {', '.join(sorted(NODES))}")
     argv = [python, "-m", PACKAGE, "run", node, "--ros-args"]
@@ -86,6 +88,7 @@ def node_argv(
         argv += ["-p", "use_sim_time:=true"]
     for p in params:
         argv += ["-p", p]
+    argv += list(ros_args)
     return tuple(argv)
 
 
@@ -111,6 +114,7 @@ def suite_specs(
     params: Mapping[str, Sequence[str]] | None = None,
     env: Mapping[str, str] | None = None,
     use_sim_time: bool = True,
+    ros_args: Mapping[str, Sequence[str]] | None = None,
 ) -> list[ProcessSpec]:
     """One ProcessSpec per node, each with its params file (if one exists) and extra ``-p`` arguments.
 
@@ -118,15 +122,16 @@ def suite_specs(
         nodes: names in registry.NODES, in start order.
         params: node -> ``name:=value`` arguments (after the params file, so they win).
         env: the environment of every process (see :func:`suite_env`).
+        ros_args: node -> further ROS arguments, e.g. ``{"planner": ("-r", "goal_pose:=target_pose")}``.
     """
     unknown = [n for n in nodes if n not in NODES]
     if unknown:
         raise SuiteError(f"unknown node {unknown[0]!r}; choose from: {', '.join(sorted(NODES))}")
-    params = params or {}
+    params, ros_args = params or {}, ros_args or {}
     return [
         ProcessSpec(
             name=n,
-            argv=node_argv(n, params.get(n, ()), find_params_file(n), use_sim_time),
+            argv=node_argv(n, params.get(n, ()), find_params_file(n), use_sim_time, ros_args=ros_args.get(n, ())),
             env=None if env is None else dict(env),
         )
         for n in nodes

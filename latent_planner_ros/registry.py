@@ -20,6 +20,7 @@ TRAIN = {
 
 BENCH = {
     "collision": "latent_planner_ros.bench.collision:main",
+    "conveyor": "latent_planner_ros.bench.conveyor:main",
     "planner": "latent_planner_ros.bench.planner:main",
     "robot": "latent_planner_ros.bench.robot:main",
     "sim": "sim_bridge.bench:main",

@@ -1,7 +1,9 @@
 """The ``sim`` node: the MuJoCo Panda world on ROS 2.
 
 Publishes ``joint_states`` (100 Hz), ``/clock``, ``sim/in_collision`` (at the joint-state rate: true if the
-arm touched the scene during the period), ``camera/points`` and ``target_pose`` (12.5 Hz); subscribes
+arm touched the scene during the period) and ``sim/min_distance`` (std_msgs/Float64 at the joint-state rate:
+the arm's ground-truth clearance [m] to the scenario objects, the table excluded, negative when
+penetrating, capped at ``sim.DISTANCE_CUTOFF_M``), ``camera/points`` and ``target_pose`` (12.5 Hz); subscribes
 ``joint_command``; serves ``sim/reset``. Rates are in simulated time; stamps are simulated time (run
 other nodes with ``use_sim_time:=true``). Parameters: :class:`~sim_bridge.sim_config.SimConfig` (see
 ``config/sim.yaml``); they take effect at the next ``sim/reset``, except ``real_time_factor`` (at once).
@@ -28,7 +30,7 @@ from rclpy.time import Time as RosTime
 from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState, PointCloud2
-from std_msgs.msg import Bool
+from std_msgs.msg import Bool, Float64
 from std_srvs.srv import Trigger
 
 from latent_planner_ros.robot.limits import JOINT_NAMES
@@ -74,6 +76,7 @@ class SimNode(Node):
         self._pub_collision = self.create_publisher(Bool, "sim/in_collision", 10)
         self._pub_cloud = self.create_publisher(PointCloud2, "camera/points", 2)
         self._pub_target = self.create_publisher(PoseStamped, "target_pose", 10)
+        self._pub_distance = self.create_publisher(Float64, "sim/min_distance", 10)
         self.create_subscription(JointState, "joint_command", self._on_command, 10)
         self.create_service(Trigger, "sim/reset", self._on_reset)
         self._was_colliding = False
@@ -139,6 +142,7 @@ class SimNode(Node):
         self._pub_clock.publish(Clock(clock=stamp))
         self._pub_joints.publish(q_to_joint_state(state.q, state.dq, stamp=stamp))
         self._pub_collision.publish(Bool(data=tick.collided))
+        self._pub_distance.publish(Float64(data=self.sim.nearest_object()[0]))
         if tick.collided and not self._was_colliding:
             self.get_logger().info(f"arm touches the scene: {self.sim.contacts()}")
         self._was_colliding = tick.collided

@@ -6,6 +6,7 @@
     state = sim.get_state()            # time, q, dq, end-effector pose
     cloud = sim.point_cloud()          # (N, 3) float32 in world, robot removed
     sim.in_collision()                 # arm/hand touching an object or the table now
+    sim.nearest_object()               # (distance [m], name): the arm's clearance to the scenario objects
 
 Not thread-safe: use it from one thread (the camera's OpenGL context belongs to the capturing thread).
 """
@@ -19,9 +20,12 @@ import numpy as np
 
 from sim_bridge.camera import DepthCamera
 from sim_bridge.command import CommandResult, JointCommand
-from sim_bridge.mjcf import TCP_SITE, build_scene
+from sim_bridge.mjcf import OBJECT_PREFIX, TCP_SITE, build_scene
 from sim_bridge.scenario import Scenario
 from sim_bridge.sim_config import SimConfig
+
+DISTANCE_CUTOFF_M = 0.5
+"""[m] :meth:`Sim.nearest_object` reports distances up to this bound (farther objects: the cutoff)."""
 
 
 @dataclass(frozen=True)
@@ -67,6 +71,13 @@ class Sim:
         self.model = scene.model
         self.model.opt.timestep = self.config.timestep
         self._robot_geoms = scene.robot_geoms
+        names = [self.model.geom(g).name for g in range(self.model.ngeom)]
+        self._distance_pairs = [
+            (int(r), int(o))
+            for r in np.flatnonzero(scene.robot_geoms)
+            for o in range(self.model.ngeom)
+            if names[o].startswith(OBJECT_PREFIX)
+        ]
         self._moving = scene.moving
         self.data = mujoco.MjData(self.model)
         q0 = np.asarray(self.config.initial_q, dtype=float)
@@ -142,6 +153,21 @@ class Sim:
                 robot, other = (g1, g2) if r1 else (g2, g1)
                 pairs.append((self.model.geom(robot).name, self.model.geom(other).name))
         return pairs
+
+    def nearest_object(self, cutoff: float = DISTANCE_CUTOFF_M) -> tuple[float, str]:
+        """The arm's clearance to the scenario objects now (the table is not one), from MuJoCo's geom distance.
+
+        Returns:
+            (distance [m], object name): the smallest signed distance between any robot geom (links, hand,
+            fingers) and any scenario object, negative when they interpenetrate; (cutoff, "") when every
+            object is farther than `cutoff` [m] or the scenario has none.
+        """
+        best, name = float(cutoff), ""
+        for robot, other in self._distance_pairs:
+            d = mujoco.mj_geomDistance(self.model, self.data, robot, other, best, None)
+            if d < best:
+                best, name = float(d), self.model.geom(other).name[len(OBJECT_PREFIX) :]
+        return best, name
 
     def in_collision(self) -> bool:
         """True if the arm or hand touches any scene object or the table now."""

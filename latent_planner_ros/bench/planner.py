@@ -17,6 +17,7 @@ import torch
 from tqdm import tqdm
 
 from latent_planner_ros.bench.report import bench_parser, write_report
+from latent_planner_ros.evaluation.stats import wilson_ci95
 from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.vae_io import load_vae
 from latent_planner_ros.planning.amp_ls import AmpLs
@@ -27,16 +28,6 @@ from latent_planner_ros.robot.panda import load_panda
 
 FREE_SEED, CLUTTER_SEED = 2000, 3000
 """Seeds of the benchmark problems (tests use other seeds; training never sees these scenes)."""
-
-
-def wilson_ci95(k: int, n: int) -> tuple[float, float]:
-    """Wilson score interval of a success rate k/n (95 %)."""
-    if n == 0:
-        return 0.0, 1.0
-    z, p = 1.96, k / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return float(max(0.0, centre - half)), float(min(1.0, centre + half))
 
 
 def reached(q: np.ndarray, problem: Problem, use_orientation: bool = True) -> tuple[bool, float, float]:
