@@ -81,7 +81,9 @@ class PlannerNode(Node):
 
     def _make_controller(self, config: PlannerNodeConfig) -> ClosedLoopController:
         backend = make_backend(config.amp_ls.collision_backend, config.collision_checkpoint)
-        controller = ClosedLoopController(AmpLs(self.vae, backend, config.amp_ls), config.closed_loop)
+        planner = AmpLs(self.vae, backend, config.amp_ls)
+        planner.warm_up()
+        controller = ClosedLoopController(planner, config.closed_loop)
         controller.set_enabled(config.enabled)
         return controller
 

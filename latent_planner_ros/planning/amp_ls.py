@@ -29,7 +29,7 @@ from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.result import PlanResult
 from latent_planner_ros.planning.time_parameterisation import interpolate, time_parameterise
 from latent_planner_ros.robot.collision import CollisionChecker
-from latent_planner_ros.robot.limits import Q_MAX, Q_MIN, V_MAX
+from latent_planner_ros.robot.limits import Q_MAX, Q_MIN, Q_READY, V_MAX
 from latent_planner_ros.robot.rotations import matrix_to_quat, matrix_to_rot6d, rot6d_to_matrix, rotation_angle_between
 from latent_planner_ros.robot.state import robot_state
 from latent_planner_ros.robot.torch_fk import TorchFK
@@ -85,6 +85,7 @@ class _Search:
         self.last_improved = np.zeros(b, dtype=int)
         self.iteration = 0
         self.backtraces = 0
+        self.restarts = 0
         self.last_losses: dict = {}
 
 
@@ -216,13 +217,37 @@ class AmpLs:
             improved = err < s.best_err - 0.002
             s.best_err = np.where(improved, err, s.best_err)
             s.last_improved = np.where(improved, t, s.last_improved)
-            if np.all(t - s.last_improved > cfg.patience):
+            stalled = t - s.last_improved > cfg.patience
+            if stalled.any() and s.restarts < cfg.restarts:
+                for b in np.flatnonzero(stalled)[: cfg.restarts - s.restarts]:
+                    self._restart(s, int(b), t)
+            elif np.all(stalled):
                 reason = "no progress"
                 break
         if winner is None:
             ends = np.array([self._fk_err(p[-1][-1], goal)[0] for p in s.paths])
             winner = int(np.argmin(ends))
         return self._result(s, winner, goal, reason, time.perf_counter() - t0, t_setup)
+
+    def _restart(self, s: _Search, b: int, t: int) -> None:
+        """Move stalled seed b to the best seed's last accepted state, with a latent kick (open loop)."""
+        best = int(np.argmin(s.best_err))
+        noise = self.config.seed_noise * self.config.restart_scale
+        with torch.no_grad():
+            s.z_prev[b] = s.z_prev[best]
+            s.z[b] = s.z_prev[best] + noise * torch.randn(s.z.shape[1], generator=self.generator)
+        for state in s.opt.state.values():  # forget this seed's optimiser moments
+            for v in state.values():
+                if torch.is_tensor(v) and v.dim() > 0:
+                    v[b] = 0.0
+        s.q_prev[b] = s.q_prev[best]
+        s.paths[b] = list(s.paths[best])
+        for geco in (s.target, s.col):  # the best seed's multipliers
+            geco.log_lambda[b] = geco.log_lambda[best]
+            if geco.c_ma is not None:
+                geco.c_ma[b] = geco.c_ma[best]
+        s.best_err[b], s.last_improved[b] = s.best_err[best], t
+        s.restarts += 1
 
     def _fk_err(self, q: np.ndarray, goal: Goal) -> tuple[float, float]:
         pos, rot = self.fk64.ee_pose(torch.as_tensor(q, dtype=torch.float64)[None])
@@ -248,8 +273,16 @@ class AmpLs:
             final_ori_err_rad=ori_err,
             iterations=s.iteration,
             timings={"setup_s": t_setup, "total_s": elapsed},
-            info={"backtraces": s.backtraces, "seed": b, **s.last_losses},
+            info={"backtraces": s.backtraces, "restarts": s.restarts, "seed": b, **s.last_losses},
         )
+
+    def warm_up(self) -> None:
+        """Run a few optimisation steps once, so the first real plan or tick does not pay torch's lazy set-up."""
+        pos, rot = self.fk64.ee_pose(torch.as_tensor(Q_READY, dtype=torch.float64)[None])
+        goal = Goal(pos[0].numpy(), rot[0].numpy())
+        s = _Search(self, Q_READY.copy())
+        for accept in (False, True, True):
+            self._iterate(s, goal, accept=accept)
 
     # -- closed loop --------------------------------------------------------------------------------------
     def reset(self) -> None:

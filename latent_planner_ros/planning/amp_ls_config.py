@@ -63,6 +63,11 @@ class AmpLsConfig:
     lambda_max: float = 1e3
     patience: int = 80
     """stop with "no progress" after this many steps without 2 mm of improvement"""
+    restarts: int = 0
+    """open loop: a seed stalled for `patience` steps restarts from the best seed's last accepted state plus
+    seed_noise * restart_scale of latent noise, up to this many times in total (0 = the seed's behaviour)"""
+    restart_scale: float = 2.0
+    """stop with "no progress" after this many steps without 2 mm of improvement"""
     speed_scale: float = 0.5
     """fraction of the joint velocity limits used by the time parameterisation"""
 
@@ -72,10 +77,13 @@ class AmpLsConfig:
             problems.append(f"optimizer must be 'adam' or 'sgd', got {self.optimizer!r}")
         if self.collision_backend not in BACKENDS:
             problems.append(f"collision_backend must be one of {BACKENDS}, got {self.collision_backend!r}")
-        for name in ("lr", "pos_tol", "ori_tol_deg", "seed_noise", "speed_scale", "lambda_min", "lambda_max"):
+        positive = ("lr", "pos_tol", "ori_tol_deg", "seed_noise", "speed_scale", "restart_scale")
+        for name in (*positive, "lambda_min", "lambda_max"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 problems.append(f"{name} must be a positive finite number, got {v!r}")
+        if not (isinstance(self.restarts, int) and self.restarts >= 0):
+            problems.append(f"restarts must be an integer >= 0, got {self.restarts!r}")
         for name in ("max_steps", "interp_steps", "n_seeds", "patience"):
             if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
                 problems.append(f"{name} must be an integer >= 1, got {getattr(self, name)!r}")

@@ -86,6 +86,7 @@ class ClosedLoopController:
         self._failed: str | None = None
         self._best_err = np.inf
         self._best_time = 0.0
+        self._best_goal: np.ndarray | None = None
 
     # -- inputs ----------------------------------------------------------------------------------
     def set_joint_state(self, q: np.ndarray, now: float) -> None:
@@ -134,7 +135,7 @@ class ClosedLoopController:
         self.goal = goal
         if changed:
             self._failed = None
-            self._best_err, self._best_time = np.inf, now
+            self._best_err, self._best_time, self._best_goal = np.inf, now, None
         return True, "goal accepted"
 
     def set_enabled(self, enabled: bool) -> None:
@@ -176,8 +177,10 @@ class ClosedLoopController:
             "tick_ms": tick_ms,
             **out.losses,
         }
-        if out.pos_err_m < self._best_err - cfg.progress_m:
-            self._best_err, self._best_time = out.pos_err_m, now
+        moved = self._best_goal is not None and np.linalg.norm(self.goal.position - self._best_goal) > cfg.progress_m
+        if out.reached or moved or out.pos_err_m < self._best_err - cfg.progress_m:
+            # progress, or within tolerance, or the goal moved on (a tracked target): the watchdog restarts
+            self._best_err, self._best_time, self._best_goal = out.pos_err_m, now, self.goal.position.copy()
         elif not out.reached and now - self._best_time > cfg.no_progress_s:
             self._failed = (
                 f"goal not reached: no progress for {cfg.no_progress_s:.0f} s "

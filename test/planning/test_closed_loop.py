@@ -70,3 +70,22 @@ def test_no_progress_ends_in_a_reported_failure(shipped_vae):
             break
     assert out is not None and out.state == "failed" and "no progress" in out.reason
     assert np.array_equal(out.command, Q_READY)  # holds
+
+
+def test_a_tracked_moving_goal_does_not_trip_the_watchdog(shipped_vae):
+    c = _controller(shipped_vae, no_progress_s=1.0)
+    goal = _goal([0.3, 0.2, 0.0, 0.2, 0.0, 0.0, 0.0])
+    q, now = Q_READY.copy(), 0.0
+    c.set_joint_state(q, now)
+    c.set_scene(np.zeros((0, 3)), now)
+    states = []
+    for _ in range(60):  # the goal drifts 1 cm/s along y; the arm follows the commands exactly
+        now += 0.1
+        moving = Goal(goal.position + np.array([0.0, 0.01 * now, 0.0]), goal.rotation)
+        c.set_goal(moving, now)
+        c.set_joint_state(q, now)
+        c.set_scene(np.zeros((0, 3)), now)
+        out = c.tick(now)
+        states.append(out.state)
+        q = out.command
+    assert "failed" not in states and "reached" in states[-20:], states
