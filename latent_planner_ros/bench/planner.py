@@ -23,6 +23,7 @@ from latent_planner_ros.models.vae_io import load_vae
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.backends import make_backend
+from latent_planner_ros.planning.closed_loop import ClosedLoopConfig
 from latent_planner_ros.planning.problems import Problem, cluttered_problems, free_space_problems, path_collides
 from latent_planner_ros.robot.panda import load_panda
 
@@ -111,7 +112,7 @@ def main(argv: list[str]) -> int:
     p = bench_parser("planner", __doc__)
     p.add_argument("--problems", type=int, default=50, help="problems per setting (free, cluttered)")
     p.add_argument("--backend", default="learned", help="collision backend: learned, geometric or none")
-    p.add_argument("--ticks", type=int, default=60, help="closed-loop ticks per problem (at most)")
+    p.add_argument("--ticks", type=int, default=100, help="closed-loop ticks per problem (at most)")
     p.add_argument("--threads", type=int, default=1, help="torch threads")
     args = p.parse_args(argv)
     torch.set_num_threads(args.threads)
@@ -129,7 +130,7 @@ def main(argv: list[str]) -> int:
     results: dict = {"backend": args.backend, "config": config.to_dict()}
     for key, probs in problems.items():
         results[key] = open_loop(planner, probs, key)
-        results[key].update(closed_loop(planner, probs, key, args.ticks, 1))
+        results[key].update(closed_loop(planner, probs, key, args.ticks, ClosedLoopConfig().max_iterations_per_tick))
     all_ticks = results["free"]["tick_ms"] + results["cluttered"]["tick_ms"]
     results["tick_ms_p50"] = float(np.percentile(all_ticks, 50))
     results["tick_ms_p99"] = float(np.percentile(all_ticks, 99))

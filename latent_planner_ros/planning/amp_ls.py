@@ -62,9 +62,9 @@ class StepResult:
 class _Search:
     """Optimisation state of a batch of latent seeds."""
 
-    def __init__(self, planner: AmpLs, start_q: np.ndarray):
+    def __init__(self, planner: AmpLs, start_q: np.ndarray, n_seeds: int | None = None):
         cfg = planner.config
-        b = cfg.n_seeds
+        b = cfg.n_seeds if n_seeds is None else n_seeds
         with torch.no_grad():
             z0 = planner.vae.encode_q(torch.as_tensor(start_q, dtype=torch.float32)[None])
         z = z0.repeat(b, 1)
@@ -76,6 +76,7 @@ class _Search:
         )
         self.z_prev = self.z.detach().clone()
         self.q_prev = np.repeat(np.asarray(start_q, dtype=float)[None], b, axis=0)
+        self.q_command = np.asarray(start_q, dtype=float).copy()
         self.paths: list[list[np.ndarray]] = [[np.asarray(start_q, dtype=float)[None]] for _ in range(b)]
         geco = dict(alpha_ma=cfg.geco_alpha_ma, lambda_min=cfg.lambda_min, lambda_max=cfg.lambda_max)
         # lambda_target scales lambda_pos and lambda_ori together
@@ -229,6 +230,21 @@ class AmpLs:
             winner = int(np.argmin(ends))
         return self._result(s, winner, goal, reason, time.perf_counter() - t0, t_setup)
 
+    def _restart_stalled(self, s: _Search, ev: dict) -> None:
+        """Closed loop: restart seeds whose error has not improved by 2 mm for `patience` iterations."""
+        if "pos_err" not in ev:
+            return
+        if ev["reached"]:
+            s.restarts = 0  # a new allowance for the next stretch of a moving goal
+        err = ev["pos_err"]
+        improved = err < s.best_err - 0.002
+        s.best_err = np.where(improved, err, s.best_err)
+        s.last_improved = np.where(improved, s.iteration, s.last_improved)
+        stalled = np.flatnonzero(s.iteration - s.last_improved > self.config.patience)
+        for b in stalled[: max(0, self.config.restarts - s.restarts)]:
+            self._restart(s, int(b), s.iteration)
+            s.best_err[b] = np.inf
+
     def _restart(self, s: _Search, b: int, t: int) -> None:
         """Move stalled seed b to the best seed's last accepted state, with a latent kick (open loop)."""
         best = int(np.argmin(s.best_err))
@@ -308,21 +324,26 @@ class AmpLs:
         if cloud is not None and cfg.use_collision:
             self.backend.set_scene(cloud)
         s = self._search
-        if s is None or np.abs(s.q_prev[0] - q_measured).max() > resync_rad:
-            s = self._search = _Search(self, q_measured)
+        # re-encode when the arm is not where the last command sent it (a reset, a push, a stale start);
+        # the latent state may run ahead of the arm, whose commands are velocity-limited
+        if s is None or np.abs(s.q_command - q_measured).max() > resync_rad:
+            s = self._search = _Search(self, q_measured, cfg.closed_loop_seeds)
         s.q_prev[:] = q_measured  # the robot is where it is: check from here
         ev: dict = {}
         for _ in range(max_iterations):
             ev = self._iterate(s, goal, accept=True)
             if ev["accepted"] or ev["reached"]:
                 break
-        b = (ev["reached"] or ev["accepted"] or [0])[0]
+        self._restart_stalled(s, ev)
+        candidates = ev.get("reached") or ev.get("accepted") or [0]
+        b = min(candidates, key=lambda i: float(ev["pos_err"][i]) if "pos_err" in ev else 0.0)  # the closest seed
         accepted = bool(ev["accepted"])
         target = s.q_prev[b] if accepted else q_measured
         delta = target - q_measured
         limit = cfg.speed_scale * V_MAX * dt
         scale = min(1.0, float(np.min(limit / np.maximum(np.abs(delta), 1e-12))))
         command = np.clip(q_measured + scale * delta, Q_MIN, Q_MAX)
+        s.q_command = command
         pos_err, ori_err = self._fk_err(s.q_prev[b], goal)
         reached = self._reached(pos_err, ori_err, goal)
         if ev.get("reached") or reached:

@@ -16,7 +16,7 @@ class AmpLsConfig:
     """latent step size (Adam learning rate) [latent units]"""
     optimizer: str = "adam"
     """"adam" or "sgd" (plain gradient step, seed eq. 3)"""
-    max_steps: int = 300
+    max_steps: int = 600
     """optimisation step budget of one open-loop plan"""
     pos_tol: float = 0.01
     """position tolerance [m]"""
@@ -38,9 +38,11 @@ class AmpLsConfig:
     """also check every interpolated state for self- and table collision (exact meshes; beyond the seed)"""
     target_on_fk: bool = True
     """target losses on the exact torch FK of the decoded q instead of the decoded pose"""
-    n_seeds: int = 1
-    """latent seeds optimised together (the first to reach the goal wins)"""
-    seed_noise: float = 0.3
+    n_seeds: int = 8
+    """latent seeds optimised together (the first to reach the goal wins); 1 = the seed's single trajectory"""
+    closed_loop_seeds: int = 1
+    """latent seeds of the closed-loop `step` (each tick checks every seed's step: the tick time grows with it)"""
+    seed_noise: float = 1.0
     """std of the perturbation of the extra seeds around the encoded start [latent units]"""
     lambda_pos: float = 1.0
     """initial weight of the position loss [1/m]"""
@@ -48,7 +50,7 @@ class AmpLsConfig:
     """initial weight of the orientation loss"""
     lambda_col: float = 1.0
     """initial weight of the collision loss"""
-    tau_prior: float = 0.9
+    tau_prior: float = 1.5
     """GECO target of the prior loss 0.5 * mean(z^2): lambda_pos and lambda_ori grow while the prior loss is
     below it and shrink while above (the seed's lambda_prior, appendix 6.B.1, moved onto the target terms)"""
     tau_col: float = 0.1
@@ -61,13 +63,13 @@ class AmpLsConfig:
     """GECO learning rate of lambda_col"""
     lambda_min: float = 1e-3
     lambda_max: float = 1e3
-    patience: int = 80
+    patience: int = 60
     """stop with "no progress" after this many steps without 2 mm of improvement"""
-    restarts: int = 0
+    restarts: int = 8
     """open loop: a seed stalled for `patience` steps restarts from the best seed's last accepted state plus
     seed_noise * restart_scale of latent noise, up to this many times in total (0 = the seed's behaviour)"""
-    restart_scale: float = 2.0
-    """stop with "no progress" after this many steps without 2 mm of improvement"""
+    restart_scale: float = 1.0
+    """latent kick of a restart, in multiples of seed_noise"""
     speed_scale: float = 0.5
     """fraction of the joint velocity limits used by the time parameterisation"""
 
@@ -84,7 +86,7 @@ class AmpLsConfig:
                 problems.append(f"{name} must be a positive finite number, got {v!r}")
         if not (isinstance(self.restarts, int) and self.restarts >= 0):
             problems.append(f"restarts must be an integer >= 0, got {self.restarts!r}")
-        for name in ("max_steps", "interp_steps", "n_seeds", "patience"):
+        for name in ("max_steps", "interp_steps", "n_seeds", "closed_loop_seeds", "patience"):
             if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
                 problems.append(f"{name} must be an integer >= 1, got {getattr(self, name)!r}")
         if not 0.0 < self.col_threshold < 1.0:
