@@ -230,21 +230,6 @@ class AmpLs:
             winner = int(np.argmin(ends))
         return self._result(s, winner, goal, reason, time.perf_counter() - t0, t_setup)
 
-    def _restart_stalled(self, s: _Search, ev: dict) -> None:
-        """Closed loop: restart seeds whose error has not improved by 2 mm for `patience` iterations."""
-        if "pos_err" not in ev:
-            return
-        if ev["reached"]:
-            s.restarts = 0  # a new allowance for the next stretch of a moving goal
-        err = ev["pos_err"]
-        improved = err < s.best_err - 0.002
-        s.best_err = np.where(improved, err, s.best_err)
-        s.last_improved = np.where(improved, s.iteration, s.last_improved)
-        stalled = np.flatnonzero(s.iteration - s.last_improved > self.config.patience)
-        for b in stalled[: max(0, self.config.restarts - s.restarts)]:
-            self._restart(s, int(b), s.iteration)
-            s.best_err[b] = np.inf
-
     def _restart(self, s: _Search, b: int, t: int) -> None:
         """Move stalled seed b to the best seed's last accepted state, with a latent kick (open loop)."""
         best = int(np.argmin(s.best_err))
@@ -334,7 +319,6 @@ class AmpLs:
             ev = self._iterate(s, goal, accept=True)
             if ev["accepted"] or ev["reached"]:
                 break
-        self._restart_stalled(s, ev)
         candidates = ev.get("reached") or ev.get("accepted") or [0]
         b = min(candidates, key=lambda i: float(ev["pos_err"][i]) if "pos_err" in ev else 0.0)  # the closest seed
         accepted = bool(ev["accepted"])
