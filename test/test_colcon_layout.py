@@ -18,7 +18,17 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE = "latent_planner_ros"
-SOURCES = ("setup.py", "setup.cfg", "package.xml", "resource", "config", PACKAGE, "sim_bridge", "msg_adapters")
+SOURCES = (
+    "setup.py",
+    "setup.cfg",
+    "package.xml",
+    "resource",
+    "config",
+    "launch",
+    PACKAGE,
+    "sim_bridge",
+    "msg_adapters",
+)
 BIN = Path(sys.executable).parent  # the venv's bin: colcon and the `python` colcon should use
 BUILD_TIMEOUT_S = 300
 
@@ -70,6 +80,9 @@ def test_ament_layout(install):
     assert_executable(install / "lib" / PACKAGE / "robot_info")
     assert (install / "share" / PACKAGE / "package.xml").read_text() == (REPO / "package.xml").read_text()
     assert (install / "share" / "ament_index" / "resource_index" / "packages" / PACKAGE).is_file()
+    assert (install / "share" / PACKAGE / "launch" / "latent_planner.launch.py").is_file()
+    for node in ("sim", "scene_encoder", "planner", "ompl_planner"):
+        assert_executable(install / "lib" / PACKAGE / node)
     for pkg in (PACKAGE, "msg_adapters"):
         assert (site_packages(install) / pkg / "__init__.py").is_file(), f"{pkg} not installed"
 
