@@ -12,7 +12,6 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-BACKEND = "geometric"
 
 PROBE = r"""
 import json, math, sys, time
@@ -129,27 +128,22 @@ def _stop(procs: list[subprocess.Popen]) -> str:
 
 @pytest.mark.ros
 @pytest.mark.slow
-def test_planner_node_plans_reaches_and_refuses_bad_goals():
+@pytest.mark.parametrize("backend", ["learned", "geometric"])
+def test_planner_node_plans_reaches_and_refuses_bad_goals(backend):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    sim = _run("sim", ["--params-file", "config/sim.yaml", "-p", "scenario:=empty"], env)
-    planner = _run(
-        "planner",
-        [
-            "--params-file",
-            "config/planner.yaml",
-            "-p",
-            "use_sim_time:=true",
-            "-p",
-            "amp_ls.collision_backend:=geometric",
-        ],
-        env,
-    )
+    procs = [_run("sim", ["--params-file", "config/sim.yaml", "-p", "scenario:=empty"], env)]
+    if backend == "learned":  # the scene arrives as embeddings from the scene_encoder node
+        procs.append(
+            _run("scene_encoder", ["--params-file", "config/scene_encoder.yaml", "-p", "use_sim_time:=true"], env)
+        )
+    params = ["--params-file", "config/planner.yaml", "-p", "use_sim_time:=true"]
+    procs.append(_run("planner", [*params, "-p", f"amp_ls.collision_backend:={backend}"], env))
     try:
         probe = subprocess.run(
             [sys.executable, "-c", PROBE], cwd=REPO, env=env, capture_output=True, text=True, timeout=240
         )
     finally:
-        logs = _stop([sim, planner])
+        logs = _stop(procs)
     line = next((x for x in probe.stdout.splitlines() if x.startswith("RESULT ")), None)
     assert line, f"probe failed:\n{probe.stdout}\n{probe.stderr[-3000:]}\n{logs}"
     out = json.loads(line[len("RESULT ") :])
@@ -157,4 +151,4 @@ def test_planner_node_plans_reaches_and_refuses_bad_goals():
     assert out["far_plan_len"] == 0 and out["status_far"] and out["status_nan"], out
     assert out["closed_loop_reached"], (out, logs)
     assert out["commands"] > 0 and out["violations"] == [], out
-    assert planner.returncode == 0 and sim.returncode == 0, logs
+    assert all(p.returncode == 0 for p in procs), logs

@@ -1,0 +1,21 @@
+"""`bench collision` writes its documented figures (a small run with the shipped checkpoint)."""
+
+import json
+
+import pytest
+
+from latent_planner_ros.bench.collision import main as bench_collision
+
+
+@pytest.mark.slow
+def test_bench_collision_writes_its_json(tmp_path):
+    out = tmp_path / "out"
+    argv = ["--out", str(out), "--scenes", "3", "--queries", "20", "--data-dir", str(tmp_path / "data")]
+    assert bench_collision(argv) == 0
+    data = json.loads((out / "collision.json").read_text())
+    keys = ["auroc_seen", "auroc_unseen", "auroc_near_seen", "auroc_near_unseen", "recall_near_unseen"]
+    keys += ["precision_near_unseen", "geometric_auroc_near_unseen", "encode_ms_median", "query_ms_median"]
+    for key in keys:
+        assert key in data, key
+    assert 0.5 < data["auroc_near_seen"] <= 1.0  # the shipped model ranks collisions above free states
+    assert list(out.glob("collision_*.png"))
