@@ -14,6 +14,7 @@ import sys
 import time
 
 import rclpy
+import torch
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
@@ -50,16 +51,20 @@ from sim_bridge.params import ConfigError, from_params, to_params
 class PlannerNode(Node):
     def __init__(self):
         super().__init__("planner")
-        names = to_params(PlannerNodeConfig())
+        torch.set_num_threads(1)  # small batches: threads only add contention with the sim and the encoder
+        self._param_names = names = to_params(PlannerNodeConfig())
         for name, value in names.items():
             self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
         self.config = from_params(PlannerNodeConfig, {n: self.get_parameter(n).value for n in names})
         self.vae, _ = load_vae(self.config.vae_checkpoint or None)
-        self.controller = self._make_controller(self.config)
+        self.controller = self._make_controller(self.config, self.vae)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._last_error = ""
         self._last_outcome = TickOutcome(None, "starting", "starting")
-        self._cloud_msg: PointCloud2 | None = None
+        self._cloud_msg: PointCloud2 | None = None  # the newest cloud, not yet converted
+        self._cloud_time = 0.0
+        self._last_cloud = None  # (points (N, 3), receipt time [s]) of the last converted cloud
+        self._cloud_points = (0, 0)  # points received, points used (finite) of the last cloud
 
         self.pub_command = self.create_publisher(JointState, "joint_command", 10)
         self.pub_traj = self.create_publisher(JointTrajectory, "~/trajectory", 10)
@@ -72,16 +77,16 @@ class PlannerNode(Node):
             self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2)
         self.create_service(GetPlan, "~/plan", self._on_plan)
         self.create_service(SetBool, "~/enable", self._on_enable)
-        self.create_timer(1.0 / self.config.closed_loop.rate_hz, self._on_tick)
-        self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)
+        self._tick_timer = self.create_timer(1.0 / self.config.closed_loop.rate_hz, self._on_tick)
+        self._status_timer = self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)
         self.get_logger().info(
             f"AMP-LS ready: backend {self.config.amp_ls.collision_backend}, "
             f"{self.config.closed_loop.rate_hz:.0f} Hz, enabled={self.config.enabled}"
         )
 
-    def _make_controller(self, config: PlannerNodeConfig) -> ClosedLoopController:
+    def _make_controller(self, config: PlannerNodeConfig, vae) -> ClosedLoopController:
         backend = make_backend(config.amp_ls.collision_backend, config.collision_checkpoint)
-        planner = AmpLs(self.vae, backend, config.amp_ls)
+        planner = AmpLs(vae, backend, config.amp_ls)
         planner.warm_up()
         controller = ClosedLoopController(planner, config.closed_loop)
         controller.set_enabled(config.enabled)
@@ -96,16 +101,35 @@ class PlannerNode(Node):
 
     # -- parameters ------------------------------------------------------------------------------
     def _on_set_parameters(self, params) -> SetParametersResult:
+        ours = {p.name: p.value for p in params if p.name in self._param_names}  # not use_sim_time etc.
+        if not ours:
+            return SetParametersResult(successful=True)
         try:
-            config = from_params(PlannerNodeConfig, {p.name: p.value for p in params}, base=self.config)
-            controller = self._make_controller(config)
+            config = from_params(PlannerNodeConfig, ours, base=self.config)
+            vae = (
+                self.vae
+                if config.vae_checkpoint == self.config.vae_checkpoint
+                else load_vae(config.vae_checkpoint or None)[0]
+            )
+            controller = self._make_controller(config, vae)
         except (ConfigError, ValueError, TypeError, CheckpointError) as err:
             return SetParametersResult(successful=False, reason=str(err))
         goal = self.controller.goal
-        self.config, self.controller = config, controller
+        if config.closed_loop.rate_hz != self.config.closed_loop.rate_hz:  # the step size follows the rate
+            self._tick_timer = self._replace_timer(self._tick_timer, config.closed_loop.rate_hz, self._on_tick)
+        if config.status_rate_hz != self.config.status_rate_hz:
+            self._status_timer = self._replace_timer(self._status_timer, config.status_rate_hz, self._publish_status)
+        self.config, self.controller, self.vae = config, controller, vae
+        if self._last_cloud is not None:
+            self._apply_cloud(*self._last_cloud)
         if goal is not None:
             self.controller.set_goal(goal, self._now())
         return SetParametersResult(successful=True)
+
+    def _replace_timer(self, timer, rate_hz: float, callback):
+        timer.cancel()
+        self.destroy_timer(timer)
+        return self.create_timer(1.0 / rate_hz, callback)
 
     # -- inputs -------------------------------------------------------------------------------------
     def _on_joint_states(self, msg: JointState) -> None:
@@ -114,23 +138,37 @@ class PlannerNode(Node):
         except AdapterError as err:
             self._error(f"joint_states refused: {err}")
             return
-        self.controller.set_joint_state(q, self._now())
+        accepted, reason = self.controller.set_joint_state(q, self._now())
+        if not accepted:
+            self._error(f"joint_states refused: {reason}")
 
     def _on_cloud(self, msg: PointCloud2) -> None:
-        self._cloud_msg = msg
-        backend = self.controller.planner.backend
-        if backend.name == "none":
+        """Keep the newest cloud; it is converted once, at the next tick, goal or plan request (clouds faster
+        than the control rate would otherwise starve the control loop)."""
+        self._cloud_msg, self._cloud_time = msg, self._now()
+
+    def _use_latest_cloud(self) -> None:
+        msg, self._cloud_msg = self._cloud_msg, None
+        if msg is None:
             return
         try:
             cloud = cloud_to_xyz(msg)
         except AdapterError as err:
             self._error(f"camera/points refused: {err}")
             return
+        self._cloud_points = (int(msg.width) * int(msg.height), len(cloud))
+        self._last_cloud = (cloud, self._cloud_time)
+        self._apply_cloud(cloud, self._cloud_time)
+
+    def _apply_cloud(self, cloud, received: float) -> None:
+        """Hand a cloud (N, 3) [m] received at `received` [s] to the backend and the goal checks."""
+        backend = self.controller.planner.backend
         if backend.name == "geometric":
-            self.controller.set_scene(cloud, self._now(), cloud=cloud)
-        elif hasattr(backend, "set_cloud"):  # learned: the raw cloud feeds the hard check of each step
+            self.controller.set_scene(cloud, received, cloud=cloud)
+            return
+        if hasattr(backend, "set_cloud"):  # learned: the raw cloud feeds the hard check of each step
             backend.set_cloud(cloud)
-            self.controller.set_cloud(cloud)
+        self.controller.set_cloud(cloud)
 
     def _on_embedding(self, msg: PointCloud2) -> None:
         try:
@@ -146,27 +184,20 @@ class PlannerNode(Node):
         pos_tol = tolerance if tolerance > 0 else cfg.pos_tol
         return Goal(target.position, target.rotation, pos_tol=pos_tol, ori_tol=cfg.ori_tol)
 
-    def _refresh_cloud(self) -> None:
-        """Hand the latest raw cloud to the goal checks (converted only when a goal arrives)."""
-        if self._cloud_msg is not None and self.config.amp_ls.collision_backend != "geometric":
-            try:
-                self.controller.set_cloud(cloud_to_xyz(self._cloud_msg))
-            except AdapterError:
-                pass
-
     def _on_goal(self, msg: PoseStamped) -> None:
         try:
             goal = self._goal_from(msg)
         except (AdapterError, ValueError) as err:
             self._error(f"goal_pose refused: {err}")
             return
-        self._refresh_cloud()
+        self._use_latest_cloud()
         accepted, reason = self.controller.set_goal(goal, self._now())
         if not accepted:
             self._error(reason)
 
     # -- control ------------------------------------------------------------------------------------
     def _on_tick(self) -> None:
+        self._use_latest_cloud()
         outcome = self.controller.tick(self._now())
         self._last_outcome = outcome
         if outcome.command is not None:
@@ -190,7 +221,7 @@ class PlannerNode(Node):
         except (AdapterError, ValueError) as err:
             self._error(f"plan refused: {err}")
             return response
-        self._refresh_cloud()
+        self._use_latest_cloud()
         ok, reason = self.controller.check_goal(goal)
         if not ok:
             self._error(f"plan {reason}")
@@ -220,7 +251,14 @@ class PlannerNode(Node):
         o = self._last_outcome
         status = DiagnosticStatus(level=bytes([o.level]), name="planner", message=f"{o.state}: {o.reason}")
         status.hardware_id = "amp_ls"
-        values = {"state": o.state, "last_error": self._last_error, **o.values}
+        points_in, points_used = self._cloud_points
+        values = {
+            "state": o.state,
+            "last_error": self._last_error,
+            "cloud_points_in": points_in,
+            "cloud_points_used": points_used,
+            **o.values,
+        }
         status.values = [
             KeyValue(key=k, value=f"{v:.6g}" if isinstance(v, float) else str(v)) for k, v in values.items()
         ]
