@@ -20,6 +20,7 @@ setup(
     ),
     package_data={
         f"{PACKAGE}.checkpoints": ["*.safetensors", "*.json"],
+        f"{PACKAGE}.bench": ["scenarios/*.json"],
         "sim_bridge": ["models/*.xml"],
     },
     data_files=[

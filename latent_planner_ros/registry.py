@@ -24,5 +24,6 @@ BENCH = {
     "planner": "latent_planner_ros.bench.planner:main",
     "robot": "latent_planner_ros.bench.robot:main",
     "sim": "sim_bridge.bench:main",
+    "table": "latent_planner_ros.bench.table:main",
     "vae": "latent_planner_ros.bench.vae:main",
 }

@@ -1,0 +1,291 @@
+"""`bench table`: AMP-LS against the OMPL planners on a scenario set, laid out like the seed's Table I.
+
+Every planner gets the same problems, the same point cloud per problem (rendered once by the virtual depth
+camera from the problem's viewpoint; planners never see the true geometry) and the same tolerance. A plan
+succeeds when the planner reports success, its last state's TCP is within 1 cm and 15 deg of the goal
+(pinocchio FK), and the joint path, densified to <= 1 cm of TCP motion and <= 0.02 rad per joint between
+checks, is free of the TRUE obstacles (exact coal meshes), the table and self collision.
+
+    python -m latent_planner_ros bench table --out bench_out/table [--scenarios FILE] [--scenes N]
+        [--planners amp_ls,rrtconnect,...] [--backend auto|learned|geometric] [--workers 2] [--minutes M]
+
+Problems run in `--workers` processes (one torch thread each); a planner's time is the wall-clock time of its
+`plan` call. Budgets: see bench/table_planners.py.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from latent_planner_ros.bench.report import bench_parser, write_report
+from latent_planner_ros.bench.scenarios import DEFAULT_SET, ScenarioError, ScenarioProblem, load_scenarios
+from latent_planner_ros.bench.table_planners import AMP_LS_VARIANTS, amp_ls_config, budgets, ompl_config, parse_planners
+from latent_planner_ros.bench.table_report import figures, markdown, summarise
+from latent_planner_ros.data.camera import CameraConfig, sample_camera_pose
+
+POS_TOL = 0.01
+"""position tolerance of success [m] (the seed's 1 cm)"""
+ORI_TOL_DEG = 15.0
+"""orientation tolerance of success [deg] (the seed's 15 deg)"""
+CLOUD_SEED = 9000
+"""seeds the viewpoint and depth noise of problems without a camera"""
+
+
+def problem_cloud(problem: ScenarioProblem, index: int, table: bool, camera: CameraConfig | None = None) -> np.ndarray:
+    """The point cloud (N, 3) float32 [m] in `world` a depth camera sees of the problem's true obstacles.
+
+    The viewpoint is the problem's camera, else drawn from the camera ranges with a seed from `index`;
+    the depth noise is seeded by the camera's seed (else `index`), so the cloud is the same on every run.
+    """
+    from latent_planner_ros.data.render import add_depth_noise, crop, depth_to_points, render_depth
+
+    cfg = camera or CameraConfig()
+    if problem.camera is not None:
+        pose = problem.camera.pose()
+        rng = np.random.default_rng(index if problem.camera.seed is None else problem.camera.seed)
+    else:
+        rng = np.random.default_rng(np.random.SeedSequence([CLOUD_SEED, index]))
+        pose = sample_camera_pose(rng, cfg)
+    if not problem.obstacles and not table:
+        return np.zeros((0, 3), dtype=np.float32)
+    depth = render_depth(problem.scene, pose, cfg.intrinsics, table=table)
+    depth[depth > cfg.max_depth] = np.inf
+    depth = add_depth_noise(depth, rng, cfg.depth_noise, cfg.depth_noise_quadratic)
+    return crop(depth_to_points(depth, pose, cfg.intrinsics), cfg.crop_min, cfg.crop_max)
+
+
+class ForeignLatentBackend:
+    """The learned backend for a planner whose VAE is not the one the collision predictor reads.
+
+    The predictor takes the latent of its own VAE: p_collision(q, z) re-encodes the decoded q with that VAE
+    (posterior mean, differentiable in q) instead of passing the planner's z.
+    """
+
+    name = "learned"
+
+    def __init__(self, backend):
+        self.inner = backend
+
+    def set_scene(self, scene) -> None:
+        self.inner.set_scene(scene)
+
+    def p_collision(self, q, z):
+        own = self.inner.predictor.vae.encode_q(q.float())
+        return self.inner.p_collision(q, own).to(z.dtype)
+
+    def check(self, q: np.ndarray) -> np.ndarray:
+        return self.inner.check(q)
+
+
+class TableRunner:
+    """Builds every planner once (per process) and runs them on one problem at a time.
+
+    Args:
+        names: rows of the table (see table_planners.ALL_PLANNERS).
+        backend: default collision backend of the AMP-LS rows ("learned" or "geometric").
+        table: the scenario set's table flag.
+        threads: torch threads.
+        checkpoint: collision predictor checkpoint stem of the learned backend ("" = the shipped one).
+    """
+
+    def __init__(self, names: list[str], backend: str, table: bool, threads: int = 1, checkpoint: str = ""):
+        import torch
+
+        from latent_planner_ros.models.vae_io import load_vae, shipped_vae_path
+        from latent_planner_ros.planning.amp_ls import AmpLs
+        from latent_planner_ros.planning.backends import make_backend
+        from latent_planner_ros.planning.ompl_baseline import OmplPlanner, seed_ompl
+        from latent_planner_ros.robot.collision import CollisionChecker
+
+        torch.set_num_threads(threads)
+        seed_ompl(1)  # OMPL takes one seed per process (0 is refused)
+        self.table = table
+        self.planners: dict = {}
+        vaes: dict = {}
+        backends: dict = {}
+        for name in names:
+            if name in AMP_LS_VARIANTS:
+                variant, config = AMP_LS_VARIANTS[name], amp_ls_config(name, backend)
+                if variant.vae not in vaes:
+                    vaes[variant.vae] = load_vae(shipped_vae_path(variant.vae) if variant.vae else None)[0]
+                if config.collision_backend not in backends:
+                    backends[config.collision_backend] = make_backend(config.collision_backend, checkpoint)
+                backend_used = backends[config.collision_backend]
+                if variant.vae and config.collision_backend == "learned":
+                    backend_used = ForeignLatentBackend(backend_used)
+                planner = AmpLs(vaes[variant.vae], backend_used, config)
+                planner.name = name
+                planner.checker = CollisionChecker(table=table)
+                planner.warm_up()
+            else:
+                planner = OmplPlanner(ompl_config(name, table))
+            self.planners[name] = planner
+
+    def run(self, index: int, problem: ScenarioProblem) -> list[dict]:
+        """One row per planner for problem `index` (see the module docstring for success)."""
+        from latent_planner_ros.evaluation.path_check import PathJudge
+        from latent_planner_ros.planning.amp_ls import AmpLs
+        from latent_planner_ros.planning.goal import Goal
+
+        goal = Goal.from_pose(problem.goal_position, problem.goal_quaternion_xyzw, POS_TOL, np.radians(ORI_TOL_DEG))
+        cloud = problem_cloud(problem, index, self.table)
+        judge = PathJudge(problem.scene, self.table)
+        start_ee = judge.panda.fk(problem.start).translation
+        distance = float(np.linalg.norm(start_ee - goal.position))
+        rows = []
+        for name, planner in self.planners.items():
+            if isinstance(planner, AmpLs):
+                planner.generator.manual_seed(index)  # the extra latent seeds depend on the problem only
+            result = planner.plan(problem.start, goal, cloud)
+            verdict = judge.judge(result.q_path, goal)
+            rows.append(
+                {
+                    "problem": index,
+                    "planner": name,
+                    "success": bool(result.success and verdict.reached and not verdict.collision),
+                    "claimed": bool(result.success),
+                    "reached": bool(verdict.reached),
+                    "collision": verdict.collision,
+                    "time_s": float(result.planning_time_s),
+                    "reason": result.reason,
+                    "pos_err_mm": 1000.0 * verdict.pos_err_m,
+                    "ori_err_deg": float(np.degrees(verdict.ori_err_rad)),
+                    "ee_path_m": verdict.ee_path_m,
+                    "joint_path_rad": verdict.joint_path_rad,
+                    "path_len_norm": verdict.ee_path_m / max(distance, 1e-6),
+                    "start_goal_distance_m": distance,
+                    "states_checked": verdict.states_checked,
+                    "cloud_points": len(cloud),
+                }
+            )
+        return rows
+
+
+_RUNNER: TableRunner | None = None
+
+
+def _init_worker(names: list[str], backend: str, table: bool, threads: int, checkpoint: str) -> None:
+    global _RUNNER
+    os.environ.setdefault("OMP_NUM_THREADS", str(threads))
+    _RUNNER = TableRunner(names, backend, table, threads, checkpoint)
+
+
+def _run_in_worker(index: int, problem: ScenarioProblem, deadline: float) -> list[dict]:
+    assert _RUNNER is not None
+    return _RUNNER.run(index, problem) if time.time() < deadline else []
+
+
+def run_table(
+    problems,
+    names: list[str],
+    backend: str,
+    table: bool,
+    workers: int = 2,
+    threads: int = 1,
+    checkpoint: str = "",
+    minutes: float = 0.0,
+) -> list[dict]:
+    """Rows of every planner on every problem (sorted by problem, then table order).
+
+    With `minutes` > 0, problems not started within that wall time [min] are skipped (every planner runs on
+    every problem that is started, so the comparison stays on the same problems).
+    """
+    deadline = time.time() + 60.0 * minutes if minutes > 0 else float("inf")
+    rows: list[dict] = []
+    bar = tqdm(total=len(problems), desc="bench table", unit="problem", dynamic_ncols=True)
+    if workers <= 1:
+        runner = TableRunner(names, backend, table, threads, checkpoint)
+        for i, p in enumerate(problems):
+            if time.time() < deadline:
+                rows += runner.run(i, p)
+            bar.update()
+    else:
+        import multiprocessing as mp
+
+        ctx = mp.get_context("spawn")
+        with ProcessPoolExecutor(
+            workers, ctx, initializer=_init_worker, initargs=(names, backend, table, threads, checkpoint)
+        ) as ex:
+            futures = [ex.submit(_run_in_worker, i, p, deadline) for i, p in enumerate(problems)]
+            for f in as_completed(futures):
+                rows += f.result()
+                bar.update()
+    bar.close()
+    order = {n: k for k, n in enumerate(names)}
+    return sorted(rows, key=lambda r: (r["problem"], order[r["planner"]]))
+
+
+def default_backend(checkpoint: str = "") -> tuple[str, str]:
+    """("learned", "") when the collision predictor's weights load, else ("geometric", why)."""
+    from latent_planner_ros.models.checkpoint import CheckpointError
+    from latent_planner_ros.planning.backends import make_backend
+
+    try:
+        make_backend("learned", checkpoint)
+        return "learned", ""
+    except CheckpointError as err:
+        return "geometric", f"learned collision weights unavailable ({err}); AMP-LS rows use the geometric backend"
+
+
+def main(argv: list[str]) -> int:
+    p = bench_parser("table", __doc__)
+    p.add_argument("--scenarios", "--set", dest="scenarios", type=Path, default=None, help="scenario set JSON")
+    p.add_argument("--scenes", "--problems", dest="scenes", type=int, default=None, help="first N problems")
+    p.add_argument("--planners", default=None, help="comma-separated rows (default: all)")
+    p.add_argument("--backend", default="auto", help="AMP-LS collision backend: auto, learned or geometric")
+    p.add_argument("--collision-checkpoint", default="", help="learned backend weights (stem; default: shipped)")
+    p.add_argument("--workers", type=int, default=2, help="processes (default 2: both cores)")
+    p.add_argument("--minutes", type=float, default=0.0, help="wall-time budget: skip problems not started by then")
+    p.add_argument("--threads", type=int, default=1, help="torch threads per process")
+    args = p.parse_args(argv)
+    try:
+        scenarios = load_scenarios(args.scenarios or DEFAULT_SET).head(args.scenes)
+    except ScenarioError as err:
+        print(f"bench table: {err}", file=sys.stderr)
+        return 2
+    notes: list[str] = []
+    backend = args.backend
+    if backend == "auto":
+        backend, note = default_backend(args.collision_checkpoint)
+        notes += [note] if note else []
+    if backend not in ("learned", "geometric"):
+        print(f"bench table: --backend must be auto, learned or geometric, got {backend!r}", file=sys.stderr)
+        return 2
+    try:
+        names = parse_planners(args.planners, backend)
+    except ValueError as err:
+        print(f"bench table: {err}", file=sys.stderr)
+        return 2
+    problems = list(scenarios.problems)
+    rows = run_table(
+        problems, names, backend, scenarios.table, args.workers, args.threads, args.collision_checkpoint, args.minutes
+    )
+    done = sorted({r["problem"] for r in rows})
+    if len(done) < len(problems):
+        notes.append(f"wall-time budget {args.minutes:g} min: {len(done)} of {len(problems)} problems run ({done})")
+    results = {
+        "planners": summarise(rows, names),
+        "scenarios": {
+            "name": scenarios.name,
+            "file": str(args.scenarios or DEFAULT_SET),
+            "problems": len(scenarios.problems),
+            "problems_run": len(done),
+            "table": scenarios.table,
+        },
+        "backend": backend,
+        "collision_checkpoint": args.collision_checkpoint or ("shipped" if backend == "learned" else ""),
+        "tolerance": {"position_m": POS_TOL, "orientation_deg": ORI_TOL_DEG},
+        "budgets": budgets(),
+        "workers": args.workers,
+        "notes": notes,
+        "rows": rows,
+    }
+    write_report(args.out, "table", results, markdown(results), figures(results, rows), argv)
+    return 0

@@ -1,0 +1,107 @@
+"""The planners of `bench table`: AMP-LS, its ablations and beyond-the-seed variants, and the OMPL planners.
+
+Every entry is built from its default configuration plus the overrides below, so the table measures exactly
+one switch per row against `amp_ls` (the default configuration). Budgets (the seed's, chapter 7 V-B):
+AMP-LS at most `max_steps` optimisation steps (stopping earlier on "no progress"); RRTConnect and LBKPIECE1
+until their first solution or 5 s (MoveIt's default timeout); RRTstar, PRMstar and BITstar for a fixed 1 s;
+OMPL solutions are simplified for at most 0.5 s. All planning times are wall clock and include each planner's
+scene processing (AMP-LS: encoding the cloud; OMPL: building the octree and the IK goal states).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.ompl_baseline_config import PLANNERS, OmplConfig
+
+
+@dataclass(frozen=True)
+class AmpLsVariant:
+    """An AMP-LS row: config overrides over AmpLsConfig(), the VAE checkpoint, and what it measures."""
+
+    what: str
+    overrides: dict = field(default_factory=dict)
+    vae: str = ""
+    """checkpoint stem in the shipped checkpoints ("" = the default VAE)"""
+    backend: str = ""
+    """collision backend ("" = the run's default backend)"""
+
+
+AMP_LS_VARIANTS: dict[str, AmpLsVariant] = {
+    "amp_ls": AmpLsVariant("default configuration"),
+    "amp_ls_no_col": AmpLsVariant("seed ablation: no collision loss and no explicit check", {"use_collision": False}),
+    "amp_ls_no_prior": AmpLsVariant("seed ablation: no prior loss", {"use_prior": False}),
+    "amp_ls_single_seed": AmpLsVariant(
+        "beyond the seed (b) off: one latent trajectory, no restarts", {"n_seeds": 1, "restarts": 0}
+    ),
+    "amp_ls_plain_vae": AmpLsVariant(
+        "beyond the seed (a) off: the seed's plain VAE, target losses on the decoded pose (the learned "
+        "predictor reads the latent of its own VAE, re-encoded from the decoded q)",
+        {"target_on_fk": False},
+        vae="vae_plain",
+    ),
+    "amp_ls_geometric": AmpLsVariant(
+        "beyond the seed (c): geometric backend (arm spheres vs cloud) instead of the learned predictor",
+        backend="geometric",
+    ),
+    "amp_ls_no_self_check": AmpLsVariant(
+        "beyond the seed off: no exact self/table check of interpolated steps", {"self_check": False}
+    ),
+}
+"""AMP-LS rows of the table, in order."""
+
+OMPL_NAMES = tuple(PLANNERS)
+"""OMPL rows: rrtconnect, rrtstar, prmstar, lbkpiece, bitstar."""
+
+ALL_PLANNERS = (*AMP_LS_VARIANTS, *OMPL_NAMES)
+
+SEED_TABLE_I = {
+    "amp_ls": (0.75, 0.26, 5.25),
+    "amp_ls_no_col": (0.46, 0.12, 3.68),
+    "amp_ls_no_prior": (0.35, 0.24, 3.23),
+    "rrtconnect": (0.86, 1.60, 2.17),
+    "rrtstar": (0.36, None, 2.25),
+    "prmstar": (0.82, None, 2.26),
+    "lbkpiece": (0.23, 2.54, 2.34),
+    "bitstar": (0.63, None, 2.42),
+}
+"""The seed's Table I (success, planning time [s], normalised path length); prmstar row = the seed's Lazy PRM*."""
+
+
+def amp_ls_config(name: str, backend: str) -> AmpLsConfig:
+    """The AmpLsConfig of row `name` with the run's default collision backend `backend`."""
+    v = AMP_LS_VARIANTS[name]
+    return AmpLsConfig(**{"collision_backend": v.backend or backend, **v.overrides})
+
+
+def ompl_config(name: str, table: bool) -> OmplConfig:
+    """The OmplConfig of row `name` (the defaults: the seed's budgets)."""
+    return OmplConfig(planner=name, table=table)
+
+
+def parse_planners(text: str | None, default_backend: str) -> list[str]:
+    """Row names from "a,b,c" (None: every row); raises ValueError naming an unknown one."""
+    names = list(ALL_PLANNERS) if not text else [n.strip() for n in text.split(",") if n.strip()]
+    unknown = [n for n in names if n not in ALL_PLANNERS]
+    if unknown:
+        raise ValueError(f"unknown planner(s) {unknown}; choose from {', '.join(ALL_PLANNERS)}")
+    if not text and default_backend == "geometric":
+        names.remove("amp_ls_geometric")  # identical to amp_ls when the default backend is already geometric
+    return names
+
+
+def budgets() -> dict:
+    """The budgets of every row, for the report."""
+    a, o = AmpLsConfig(), OmplConfig()
+    return {
+        "amp_ls": {"max_steps": a.max_steps, "patience_steps": a.patience, "n_seeds": a.n_seeds},
+        "rrtconnect": {"timeout_s": o.timeout_s},
+        "lbkpiece": {"timeout_s": o.timeout_s},
+        "rrtstar": {"fixed_budget_s": o.anytime_budget_s},
+        "prmstar": {"fixed_budget_s": o.anytime_budget_s},
+        "bitstar": {"fixed_budget_s": o.anytime_budget_s},
+        "ompl_simplify_s": o.simplify_time_s if o.simplify else 0.0,
+        "ompl_octree_resolution_m": o.octree_resolution,
+        "ompl_ik": {"n_seeds": o.ik.n_seeds, "max_solutions": o.ik.max_solutions},
+    }

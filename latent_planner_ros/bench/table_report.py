@@ -1,0 +1,167 @@
+"""Statistics, markdown and figures of `bench table` (the layout of the seed's Table I)."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from latent_planner_ros.bench.table_planners import AMP_LS_VARIANTS, SEED_TABLE_I
+from latent_planner_ros.evaluation.stats import percentile, wilson_ci95
+
+
+def _median(values) -> float | None:
+    return percentile(values, 50)
+
+
+def _std(values) -> float | None:
+    a = np.asarray(values, dtype=float)
+    a = a[np.isfinite(a)]
+    return float(a.std()) if a.size else None
+
+
+def summarise(rows: list[dict], names: list[str]) -> dict:
+    """Per planner: {n, success, success_ci95, time_median_s, time_p95_s, path_len_median, path_len_std, ...}.
+
+    Times over every attempt; path lengths (TCP path / start-goal TCP distance, joint-space and TCP lengths)
+    over the successful plans only. `unsafe`: plans reported successful whose path hits the true geometry.
+    """
+    out: dict = {}
+    for name in names:
+        mine = [r for r in rows if r["planner"] == name]
+        ok = [r for r in mine if r["success"]]
+        n, k = len(mine), len(ok)
+        times = [r["time_s"] for r in mine]
+        out[name] = {
+            "n": n,
+            "successes": k,
+            "success": k / n if n else 0.0,
+            "success_ci95": list(wilson_ci95(k, n)),
+            "time_median_s": _median(times),
+            "time_p95_s": percentile(times, 95),
+            "time_std_s": _std(times),
+            "time_median_success_s": _median([r["time_s"] for r in ok]),
+            "path_len_median": _median([r["path_len_norm"] for r in ok]),
+            "path_len_std": _std([r["path_len_norm"] for r in ok]),
+            "joint_path_median_rad": _median([r["joint_path_rad"] for r in ok]),
+            "ee_path_median_m": _median([r["ee_path_m"] for r in ok]),
+            "claimed": sum(r["claimed"] for r in mine),
+            "unsafe": sum(r["claimed"] and bool(r["collision"]) for r in mine),
+            "claimed_but_missed": sum(r["claimed"] and not r["reached"] for r in mine),
+            "failures": dict(Counter(_short(r["reason"]) for r in mine if not r["claimed"]).most_common(5)),
+            "speedup_vs_rrtconnect": None,
+        }
+    ref = out.get("rrtconnect", {}).get("time_median_s")
+    for s in out.values():
+        if ref and s["time_median_s"]:
+            s["speedup_vs_rrtconnect"] = ref / s["time_median_s"]
+    return out
+
+
+def _short(reason: str) -> str:
+    """A failure reason without its numbers (so equal causes count together)."""
+    return reason.split(" (")[0].split(":")[0][:60]
+
+
+def _fmt(x, spec: str = ".2f") -> str:
+    return "n/a" if x is None else format(x, spec)
+
+
+def markdown(results: dict) -> str:
+    """The report: the table in the seed's Table I layout, the seed's figures beside, budgets and notes."""
+    s = results["scenarios"]
+    tol = results["tolerance"]
+    lines = [
+        "# Open-loop reaching: AMP-LS vs OMPL (seed chapter 7, Table I)",
+        "",
+        f"Scenario set `{s['name']}` ({s['problems_run']} of {s['problems']} problems run, table "
+        f"{'on' if s['table'] else 'off'}); "
+        f"AMP-LS collision backend `{results['backend']}`; success = reported success, TCP within "
+        f"{tol['position_m'] * 100:g} cm / {tol['orientation_deg']:g} deg (pinocchio FK) and the densified path "
+        "free of the true obstacles, the table and self collision. Time: median ± std over all attempts (p95); "
+        "path length: TCP path / start-goal distance, median ± std over successful plans.",
+        "",
+        "| planner | success | 95 % CI | planning time [s] | p95 [s] | path length | joint path [rad] "
+        "| TCP path [m] | speed-up vs RRTConnect | unsafe | seed Table I |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name, r in results["planners"].items():
+        lo, hi = r["success_ci95"]
+        seed = SEED_TABLE_I.get(name)
+        seed_time = f"{seed[1]:.2f} s" if seed and seed[1] is not None else "n/a"
+        seed_txt = f"{seed[0]:.2f} / {seed_time} / {seed[2]:.2f}" if seed else ""
+        speed = r["speedup_vs_rrtconnect"]
+        lines.append(
+            f"| `{name}` | {r['success']:.2f} ({r['successes']}/{r['n']}) | {lo:.2f}-{hi:.2f} "
+            f"| {_fmt(r['time_median_s'], '.3f')} ± {_fmt(r['time_std_s'], '.3f')} | {_fmt(r['time_p95_s'], '.3f')} "
+            f"| {_fmt(r['path_len_median'])} ± {_fmt(r['path_len_std'])} | {_fmt(r['joint_path_median_rad'])} "
+            f"| {_fmt(r['ee_path_median_m'])} | {_fmt(speed, '.1f')}{'x' if speed else ''} | {r['unsafe']} "
+            f"| {seed_txt} |"
+        )
+    lines += ["", "Rows:", ""]
+    for name in results["planners"]:
+        if name in AMP_LS_VARIANTS:
+            lines.append(f"- `{name}`: {AMP_LS_VARIANTS[name].what}")
+    lines += [
+        "- `rrtconnect`, `lbkpiece`: first solution or timeout; `rrtstar`, `prmstar` (the seed's Lazy PRM*), "
+        "`bitstar`: fixed budget (the seed reports no time for these).",
+        "",
+        "Seed Table I column: success / time / path length as published (Gazebo + MoveIt, a different machine "
+        "and scene generator: anchors, not a like-for-like comparison). `unsafe`: plans reported successful "
+        "whose path hits the true geometry (occlusion, voxelisation, a wrong prediction).",
+        "",
+        "Budgets: " + ", ".join(f"{k} {v}" for k, v in results["budgets"].items()),
+    ]
+    if results.get("notes"):
+        lines += ["", "Notes:", *[f"- {n}" for n in results["notes"]]]
+    return "\n".join(lines)
+
+
+def figures(results: dict, rows: list[dict]) -> dict:
+    """success vs planning time (with 95 % CIs), success bars, time distributions, path-length box plots."""
+    names = list(results["planners"])
+    stats = results["planners"]
+    colours = {n: ("tab:blue" if n in AMP_LS_VARIANTS else "tab:orange") for n in names}
+    figs = {}
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for n in names:
+        r = stats[n]
+        if r["time_median_s"] is None:
+            continue
+        lo, hi = r["success_ci95"]
+        ax.errorbar(
+            r["time_median_s"],
+            r["success"],
+            yerr=[[r["success"] - lo], [hi - r["success"]]],
+            fmt="o",
+            color=colours[n],
+            capsize=3,
+        )
+        ax.annotate(n, (r["time_median_s"], r["success"]), textcoords="offset points", xytext=(5, 4), fontsize=8)
+    ax.set(xscale="log", xlabel="median planning time [s]", ylabel="success rate (95 % CI)", ylim=(0, 1.05))
+    ax.grid(alpha=0.3)
+    figs["success_time"] = fig
+
+    fig, ax = plt.subplots(figsize=(max(6, 0.8 * len(names)), 3.8))
+    x = np.arange(len(names))
+    succ = np.array([stats[n]["success"] for n in names])
+    ci = np.array([stats[n]["success_ci95"] for n in names]).reshape(-1, 2)
+    ax.bar(x, succ, color=[colours[n] for n in names], yerr=[succ - ci[:, 0], ci[:, 1] - succ], capsize=3)
+    ax.set_xticks(x, names, rotation=35, ha="right")
+    ax.set(ylabel="success rate (95 % CI)", ylim=(0, 1.05))
+    figs["success"] = fig
+
+    for key, field, ylabel, log in (
+        ("times", "time_s", "planning time [s] (all attempts)", True),
+        ("path_length", "path_len_norm", "TCP path / start-goal distance (successes)", False),
+    ):
+        fig, ax = plt.subplots(figsize=(max(6, 0.8 * len(names)), 3.8))
+        data = [[r[field] for r in rows if r["planner"] == n and (key == "times" or r["success"])] for n in names]
+        ax.boxplot([d if d else [np.nan] for d in data], showfliers=True)
+        ax.set_xticks(np.arange(1, len(names) + 1), names, rotation=35, ha="right")
+        ax.set(ylabel=ylabel, yscale="log" if log else "linear")
+        ax.grid(alpha=0.3, axis="y")
+        figs[key] = fig
+    return figs

@@ -1,0 +1,54 @@
+"""`bench table` end to end on 3 problems x 2 planners, and its refusals."""
+
+import json
+
+import pytest
+
+from latent_planner_ros.bench.scenario_generator import GeneratorConfig, generate_set
+from latent_planner_ros.bench.scenarios import save_scenarios
+from latent_planner_ros.bench.table import main as bench_table
+from latent_planner_ros.bench.table_planners import parse_planners
+
+FIELDS = {
+    "n",
+    "success",
+    "success_ci95",
+    "time_median_s",
+    "time_p95_s",
+    "path_len_median",
+    "path_len_std",
+    "speedup_vs_rrtconnect",
+    "joint_path_median_rad",
+    "ee_path_median_m",
+    "unsafe",
+}
+
+
+@pytest.mark.slow
+def test_bench_table_writes_every_field(tmp_path):
+    scenarios = save_scenarios(generate_set(GeneratorConfig(problems=3, seed=77), progress=False), tmp_path / "s.json")
+    argv = ["--out", str(tmp_path / "out"), "--scenarios", str(scenarios), "--planners", "amp_ls,rrtconnect"]
+    assert bench_table([*argv, "--backend", "geometric", "--workers", "1"]) == 0
+    data = json.loads((tmp_path / "out" / "table.json").read_text())
+    assert set(data["planners"]) == {"amp_ls", "rrtconnect"}
+    for name, stats in data["planners"].items():
+        assert FIELDS <= set(stats), (name, FIELDS - set(stats))
+        assert stats["n"] == 3 and 0.0 <= stats["success_ci95"][0] <= stats["success"] <= stats["success_ci95"][1]
+        assert stats["time_median_s"] > 0
+    assert data["planners"]["rrtconnect"]["speedup_vs_rrtconnect"] == pytest.approx(1.0)
+    assert len(data["rows"]) == 6 and {r["cloud_points"] for r in data["rows"]} != {0}
+    assert data["_meta"]["command"].startswith("python -m latent_planner_ros bench table")
+    md = (tmp_path / "out" / "table.md").read_text()
+    assert "| `amp_ls` |" in md and "| `rrtconnect` |" in md
+    for fig in ("success_time", "success", "times", "path_length"):
+        assert (tmp_path / "out" / f"table_{fig}.png").exists(), fig
+
+
+def test_bench_table_refuses_a_bad_set_and_unknown_planners(tmp_path, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"name": "x", "table": True, "problems": [{"start": [0] * 7}]}))
+    assert bench_table(["--out", str(tmp_path), "--scenarios", str(bad)]) == 2
+    assert "bad.json: problems[0].start: joint 4" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="rrt_connect"):
+        parse_planners("amp_ls,rrt_connect", "learned")
+    assert "amp_ls_geometric" not in parse_planners(None, "geometric")
