@@ -140,17 +140,15 @@ class AmpLs:
         pos_err, ori_err = self._errors(pos, ori, goal)
         if accept:
             q_np, p_np = q.detach().double().numpy(), p_col.detach().numpy()
-            for b in range(len(q_np)):
-                if cfg.use_collision and p_np[b] >= cfg.col_threshold:
-                    events["rejected"].append(b)
-                    continue
-                seg = interpolate(s.q_prev[b], q_np[b], cfg.interp_steps)
-                hits = self.backend.check(seg) if cfg.use_collision else np.zeros(len(seg), dtype=bool)
-                if cfg.self_check:
-                    hits |= ~self.checker.feasible(seg)
+            rejected = cfg.use_collision & (p_np >= cfg.col_threshold)
+            events["rejected"] = [int(b) for b in np.flatnonzero(rejected)]
+            candidates = np.flatnonzero(~rejected)
+            segs = {int(b): interpolate(s.q_prev[b], q_np[b], self._n_checks(s.q_prev[b], q_np[b])) for b in candidates}
+            all_hits = self._check_segments(list(segs.values()))
+            for b, seg, hits in zip(segs, segs.values(), all_hits, strict=True):
                 if hits.any():
                     i = int(np.argmax(hits)) + 1
-                    s.target.scale(np.where(np.arange(len(q_np)) == b, i / cfg.interp_steps, 1.0))
+                    s.target.scale(np.where(np.arange(len(q_np)) == b, i / len(seg), 1.0))
                     with torch.no_grad():
                         s.z[b] = s.z_prev[b]
                     s.backtraces += 1
@@ -229,6 +227,22 @@ class AmpLs:
             ends = np.array([self._fk_err(p[-1][-1], goal)[0] for p in s.paths])
             winner = int(np.argmin(ends))
         return self._result(s, winner, goal, reason, time.perf_counter() - t0, t_setup)
+
+    def _n_checks(self, q_from: np.ndarray, q_to: np.ndarray) -> int:
+        """m, the states checked on a step: interp_steps, or (check_step_rad > 0) one per check_step_rad [rad]."""
+        if self.config.check_step_rad <= 0:
+            return self.config.interp_steps
+        return max(1, int(np.ceil(np.abs(q_to - q_from).max() / self.config.check_step_rad)))
+
+    def _check_segments(self, segs: list[np.ndarray]) -> list[np.ndarray]:
+        """Hard checks of interpolated segments [(m, 7)] in one batch: a (m,) bool hit mask per segment."""
+        if not segs:
+            return []
+        states = np.concatenate(segs)
+        hits = self.backend.check(states) if self.config.use_collision else np.zeros(len(states), dtype=bool)
+        if self.config.self_check:
+            hits |= ~self.checker.feasible(states)
+        return np.split(hits, np.cumsum([len(seg) for seg in segs])[:-1])
 
     def _restart(self, s: _Search, b: int, t: int) -> None:
         """Move stalled seed b to the best seed's last accepted state, with a latent kick (open loop)."""

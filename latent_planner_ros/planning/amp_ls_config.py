@@ -34,6 +34,9 @@ class AmpLsConfig:
     """gamma_col: a decoded state with p(collision) above this is not accepted"""
     interp_steps: int = 15
     """m: states checked on the linear interpolation of each accepted step"""
+    check_step_rad: float = 0.02
+    """> 0: check one interpolated state per this joint-space step [rad] instead of a fixed interp_steps
+    (short steps cost fewer checks, long ones get more; beyond the seed); 0: the seed's fixed m"""
     self_check: bool = True
     """also check every interpolated state for self- and table collision (exact meshes; beyond the seed)"""
     target_on_fk: bool = True
@@ -89,6 +92,8 @@ class AmpLsConfig:
         for name in ("max_steps", "interp_steps", "n_seeds", "closed_loop_seeds", "patience"):
             if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
                 problems.append(f"{name} must be an integer >= 1, got {getattr(self, name)!r}")
+        if not (isinstance(self.check_step_rad, int | float) and 0.0 <= self.check_step_rad <= 0.5):
+            problems.append(f"check_step_rad must be in [0, 0.5], got {self.check_step_rad!r}")
         if not 0.0 < self.col_threshold < 1.0:
             problems.append(f"col_threshold must be in (0, 1), got {self.col_threshold}")
         if not 0.0 <= self.geco_alpha_ma < 1.0:
