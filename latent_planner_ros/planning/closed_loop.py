@@ -15,8 +15,13 @@ import numpy as np
 
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.robot.limits import JOINT_NAMES, Q_MAX, Q_MIN
 
 OK, WARN, ERROR = 0, 1, 2
+
+MEASURED_LIMIT_TOL_RAD = 0.05
+"""[rad] a measured joint may lie this far outside its limits (compliance, calibration); farther is a faulty
+measurement, refused like a malformed one (holds are commanded inside the limits either way)"""
 
 
 @dataclass
@@ -89,8 +94,16 @@ class ClosedLoopController:
         self._best_goal: np.ndarray | None = None
 
     # -- inputs ----------------------------------------------------------------------------------
-    def set_joint_state(self, q: np.ndarray, now: float) -> None:
-        self._q, self._q_time = np.asarray(q, dtype=float), now
+    def set_joint_state(self, q: np.ndarray, now: float) -> tuple[bool, str]:
+        """The measured q (7,) [rad] at time now; returns (accepted, reason): a q farther than
+        MEASURED_LIMIT_TOL_RAD outside the joint limits is refused (the last accepted one ages and goes stale)."""
+        q = np.asarray(q, dtype=float)
+        outside = (q < Q_MIN - MEASURED_LIMIT_TOL_RAD) | (q > Q_MAX + MEASURED_LIMIT_TOL_RAD)
+        if np.any(outside):
+            joints = ", ".join(f"{JOINT_NAMES[i]} = {q[i]:.3f} rad" for i in np.flatnonzero(outside))
+            return False, f"measured state outside the joint limits: {joints}"
+        self._q, self._q_time = q, now
+        return True, ""
 
     def set_scene(self, scene: Any, now: float, cloud: np.ndarray | None = None) -> None:
         """The scene as the planner's collision backend consumes it, and the raw cloud if known."""
@@ -148,11 +161,13 @@ class ClosedLoopController:
     def tick(self, now: float) -> TickOutcome:
         cfg = self.config
         if not self.enabled:
+            self._best_time = now  # the no-progress watchdog counts only time spent optimising
             return TickOutcome(None, "disabled", "closed-loop tracking is disabled (call enable)")
         if self._q is None or now - self._q_time > cfg.stale_joint_states_s:
             age = "never received" if self._q is None else f"{now - self._q_time:.2f} s old"
+            self._best_time = now
             return TickOutcome(None, "holding", f"no command: joint states {age}", ERROR)
-        hold = self._q.copy()
+        hold = np.clip(self._q, Q_MIN, Q_MAX)
         if self.goal is None:
             return TickOutcome(hold, "holding", "holding: no goal")
         if self._failed is not None:
@@ -160,6 +175,7 @@ class ClosedLoopController:
         use_scene = self.planner.config.use_collision
         if use_scene and (self._scene is None or now - self._scene_time > cfg.stale_scene_s):
             age = "never received" if self._scene is None else f"{now - self._scene_time:.2f} s old"
+            self._best_time = now
             return TickOutcome(hold, "holding", f"holding: scene {age}", WARN)
         t0 = time.perf_counter()
         out = self.planner.step(
