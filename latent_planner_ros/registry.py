@@ -21,6 +21,7 @@ TRAIN = {
 BENCH = {
     "collision": "latent_planner_ros.bench.collision:main",
     "conveyor": "latent_planner_ros.bench.conveyor:main",
+    "faults": "latent_planner_ros.bench.faults:main",
     "planner": "latent_planner_ros.bench.planner:main",
     "robot": "latent_planner_ros.bench.robot:main",
     "sim": "sim_bridge.bench:main",

@@ -1,8 +1,11 @@
 """planner node: AMP-LS closed-loop joint targets at 10 Hz and one-shot plans on a service.
 
 Subscribes joint_states, goal_pose, scene_embedding (learned backend) and camera/points (geometric
-backend, and the goal-inside-obstacle check). Publishes joint_command (when enabled), ~/trajectory,
-~/markers, ~/status. Services ~/plan (nav_msgs/GetPlan) and ~/enable (std_srvs/SetBool).
+backend, the hard check, and the goal-inside-obstacle check; only the newest cloud is converted, once per tick,
+so a fast camera cannot starve the control loop). Joint states that are malformed or far outside the joint
+limits are refused (the last good one goes stale and commands stop). Publishes joint_command (when enabled),
+~/trajectory, ~/markers, ~/status (with the last cloud's point counts). Services ~/plan (nav_msgs/GetPlan)
+and ~/enable (std_srvs/SetBool).
 Parameters: PlannerNodeConfig (config/planner.yaml), validated; a bad value is refused with a reason.
 
     python -m latent_planner_ros run planner [--ros-args --params-file config/planner.yaml]
