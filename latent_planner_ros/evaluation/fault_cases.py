@@ -9,22 +9,19 @@ Cases come in groups that share one suite start-up:
 
 - ``inputs`` (geometric backend pinned: these cases do not depend on it; probe as arm and camera):
   bad goals, faulty and silent ``joint_states``, bad and valid runtime parameters.
-- ``scene`` (the configured backend; with the learned one the scene_encoder runs): malformed, empty and huge
-  ``camera/points``, the camera going silent, the planner and the scene_encoder killed and restarted,
-  and the load figure (planner tick p99 while 100k-point clouds arrive at 30 Hz).
+- ``scene`` (the configured backend; with the learned one the scene_encoder runs): the load figure (planner
+  tick p99 while 100k-point clouds arrive at 30 Hz), malformed, empty and huge ``camera/points``, the camera
+  going silent, the planner and the scene_encoder killed and restarted.
 - ``sim`` (the sim instead of the probe's arm): a sim reset in mid-motion.
-- ``startup`` (single processes): missing, corrupt and mismatched checkpoints and bad parameters at start:
-  a clear error and a non-zero exit.
+- ``startup`` (single processes, ``fault_startup``): missing, corrupt and mismatched checkpoints and bad
+  parameters at start: a clear error and a non-zero exit.
 
     results, info = run_group("inputs", log_path="out/faults_nodes.log")
 """
 
 from __future__ import annotations
 
-import concurrent.futures
-import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -32,6 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
+from latent_planner_ros.evaluation.fault_context import (
+    HELD_RAD,
+    PERIOD_S,
+    STALE_JOINTS_S,
+    STALE_SCENE_S,
+    CaseResult,
+    Ctx,
+)
 from latent_planner_ros.evaluation.fault_inputs import (
     BOX_CENTRE,
     JOINT_STATE_FAULTS,
@@ -42,169 +47,17 @@ from latent_planner_ros.evaluation.fault_inputs import (
     pose_at,
     random_cloud,
 )
+from latent_planner_ros.evaluation.fault_startup import run_startup_group
 from latent_planner_ros.evaluation.fault_suite import FaultSuite, plan_fault_suite
 from latent_planner_ros.evaluation.stats import percentile
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig
 from latent_planner_ros.supervisor import StartupError
 
-STALE_JOINTS_S = ClosedLoopConfig().stale_joint_states_s
-STALE_SCENE_S = ClosedLoopConfig().stale_scene_s
-PERIOD_S = 1.0 / ClosedLoopConfig().rate_hz
-HELD_RAD = 0.01
-"""[rad] an arm that moves less than this per joint over a window is holding."""
-REACH_TIMEOUT_S = 25.0
-"""[s] longest wait for the arm to reach a fresh goal when checking that operation resumed."""
 LOAD_POINTS, LOAD_RATE_HZ, LOAD_S = 100_000, 30.0, 10.0
+"""The load case: clouds of this many points at this rate [Hz] for this long [s] (after as long at rest)."""
 HUGE_POINTS = 2_000_000
 GIVE_UP_S = 3.0
 """[s] the planner's no-progress limit while it chases a goal inside an unobserved box interior."""
-
-
-@dataclass
-class CaseResult:
-    """The outcome of one case: checks by label (True = passed), notes, wall time [s], violations."""
-
-    name: str
-    group: str
-    survived: bool = False
-    checks: dict[str, bool] = field(default_factory=dict)
-    notes: list[str] = field(default_factory=list)
-    duration_s: float = 0.0
-    violations: int = 0
-
-    def failures(self) -> list[str]:
-        return [label for label, ok in self.checks.items() if not ok]
-
-    def to_dict(self) -> dict:
-        return {
-            "name": self.name,
-            "group": self.group,
-            "survived": self.survived,
-            "checks": self.checks,
-            "notes": self.notes,
-            "duration_s": round(self.duration_s, 2),
-            "violations": self.violations,
-        }
-
-
-class Ctx:
-    """What a case works with: the suite, its probe, check bookkeeping and waiting helpers."""
-
-    def __init__(self, suite: FaultSuite | None, group: str):
-        self.suite = suite
-        self.probe = suite.probe if suite is not None else None
-        self.group = group
-        self.backend = suite.plan.backend if suite is not None else ""
-        self.scene = box_cloud()
-        self.figures: dict = {}
-        self.result: CaseResult | None = None
-        self._goal = 0
-
-    # -- bookkeeping ---------------------------------------------------------------------------
-    def check(self, label: str, ok: bool, detail: str = "") -> bool:
-        self.result.checks[label] = bool(ok)
-        if detail or not ok:
-            self.result.notes.append(f"{label}: {'ok' if ok else 'FAILED'}{' - ' + detail if detail else ''}")
-        return bool(ok)
-
-    def note(self, text: str) -> None:
-        self.result.notes.append(text)
-
-    # -- waiting -------------------------------------------------------------------------------
-    @staticmethod
-    def wait(pred: Callable[[], bool], timeout_s: float, poll_s: float = 0.05) -> bool:
-        end = time.monotonic() + timeout_s
-        while True:
-            if pred():
-                return True
-            if time.monotonic() > end:
-                return False
-            time.sleep(poll_s)
-
-    def seen(self, text: str, since: float, nodes=("planner", "scene_encoder"), timeout_s: float = 3.0) -> bool:
-        """Whether `text` appears in a status (message or key=value) or a /rosout line of `nodes` after `since`."""
-
-        def found() -> bool:
-            for node in nodes:
-                if any(text in s.text() for s in self.probe.statuses_since(node, since)):
-                    return True
-            return any(name in nodes and text in msg for _, name, _, msg in self.probe.logs_since(since))
-
-        return self.wait(found, timeout_s)
-
-    def value_seen(self, key: str, pred: Callable[[str], bool], since: float, node="planner", timeout_s=3.0) -> bool:
-        """Whether a status of `node` after `since` has values[key] satisfying pred."""
-        return self.wait(
-            lambda: any(key in s.values and pred(s.values[key]) for s in self.probe.statuses_since(node, since)),
-            timeout_s,
-        )
-
-    def state(self) -> str:
-        """The planner's latest reported state ("" before any status)."""
-        recent = self.probe.statuses_since("planner", time.monotonic() - 1.0)
-        return recent[-1].values.get("state", "") if recent else ""
-
-    def command_rate(self, window_s: float = 1.0) -> float:
-        """Commands per second over the last window_s."""
-        return len(self.probe.commands_since(time.monotonic() - window_s)) / window_s
-
-    def last_command_stamp(self) -> float | None:
-        """Header stamp [s] of the latest command (the planner's clock when it was sent)."""
-        cmds = self.probe.commands_since(0.0)
-        return cmds[-1][2] if cmds else None
-
-    def arm_motion(self, since: float, until: float | None = None) -> float:
-        """Largest joint excursion [rad] of the measured arm over [since, until]."""
-        qs = [q for t, q in self.probe.measured_since(since) if until is None or t <= until]
-        if len(qs) < 2:
-            return 0.0
-        qs = np.asarray(qs)
-        return float(np.max(qs.max(axis=0) - qs.min(axis=0)))
-
-    def next_goal(self) -> str:
-        self._goal += 1
-        name = "AB"[self._goal % 2]
-        self.probe.set_goal(goal_pose(name))
-        return name
-
-    def operating(self, timeout_s: float = REACH_TIMEOUT_S, new_goal: bool = True) -> bool:
-        """Send a fresh goal (A and B alternate) and wait until the planner reports it reached while
-        commanding at its rate: normal operation."""
-        if new_goal:
-            self.next_goal()
-        t0 = time.monotonic()
-
-        def ok() -> bool:  # tracking (the new goal is being pursued), then reached
-            states = [s.values.get("state") for s in self.probe.statuses_since("planner", t0)]
-            reached = "tracking" in states and "reached" in states[states.index("tracking") :]
-            return reached and self.command_rate() >= 0.7 / PERIOD_S
-
-        return self.wait(ok, timeout_s, poll_s=0.1)
-
-    def moving(self, timeout_s: float = 2.0) -> bool:
-        """Send a fresh goal and wait until the planner tracks it (the arm is on its way)."""
-        self.next_goal()
-        t0 = time.monotonic()
-        return self.wait(
-            lambda: any(s.values.get("state") == "tracking" for s in self.probe.statuses_since("planner", t0 + 0.1)),
-            timeout_s,
-        )
-
-    def resumes(self, label: str = "operation resumes") -> bool:
-        t0 = time.monotonic()
-        ok = self.operating()
-        return self.check(label, ok, f"goal reached {time.monotonic() - t0:.1f} s after recovery" if ok else "")
-
-    def holds_after(self, since: float, what: str, timeout_s: float) -> bool:
-        """Check that the planner reports holding (`what` in its status) and that the arm then stays put."""
-        ok = self.seen(what, since, ("planner",), timeout_s)
-        self.check(f"planner reports '{what}'", ok)
-        if ok:
-            t = time.monotonic()
-            time.sleep(0.6)
-            motion = self.arm_motion(t + 0.1)
-            self.check("arm holds", motion < HELD_RAD, f"moved {motion:.4f} rad in 0.5 s")
-        return ok
 
 
 # ---------------------------------------------------------------------------------------------- cases
@@ -491,83 +344,6 @@ def sim_reset(ctx: Ctx) -> None:
     ctx.check("the sim logs the reset", ctx.seen("scenario 'empty'", t0, ("sim",), 3.0))
     ctx.check("the planner tracks from the reset state", ctx.operating(new_goal=False))
     ctx.resumes()
-
-
-# ---------------------------------------------------------------------------------------------- start-up
-def _write_corrupt(stem: Path) -> Path:
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    stem.with_suffix(".safetensors").write_bytes(b"\x10\x00\x00\x00\x00\x00\x00\x00{not safetensors")
-    stem.with_suffix(".json").write_text("{}\n")
-    return stem
-
-
-def startup_cases(tmp: Path) -> dict[str, tuple[str, list[str], str]]:
-    """name -> (node, ``-p`` arguments, text its error must contain)."""
-    from latent_planner_ros.models.vae_io import shipped_vae_path
-
-    corrupt = _write_corrupt(tmp / "corrupt")
-    bad_json = _write_corrupt(tmp / "bad_json")
-    bad_json.with_suffix(".json").write_text("{ not json")
-    missing = tmp / "missing" / "nothing"
-    vae = shipped_vae_path()
-    return {
-        "startup_planner_missing_vae": ("planner", [f"vae_checkpoint:={missing}"], "checkpoint file missing"),
-        "startup_planner_corrupt_vae": ("planner", [f"vae_checkpoint:={corrupt}"], "truncated or corrupt"),
-        "startup_planner_vae_metadata_not_json": ("planner", [f"vae_checkpoint:={bad_json}"], "is not valid JSON"),
-        "startup_planner_missing_collision": (
-            "planner",
-            ["amp_ls.collision_backend:=learned", f"collision_checkpoint:={missing}"],
-            "checkpoint file missing",
-        ),
-        "startup_encoder_corrupt_checkpoint": ("scene_encoder", [f"checkpoint:={corrupt}"], "truncated or corrupt"),
-        "startup_encoder_wrong_checkpoint": ("scene_encoder", [f"checkpoint:={vae}"], "is not a collision network"),
-        "startup_planner_bad_rate": ("planner", ["closed_loop.rate_hz:=-5.0"], "rate_hz must be a positive"),
-        "startup_planner_bad_backend": ("planner", ["amp_ls.collision_backend:=bogus"], "collision_backend must be"),
-        "startup_encoder_bad_max_points": ("scene_encoder", ["max_points:=0"], "max_points: expected an integer"),
-        "startup_sim_bad_timestep": ("sim", ["timestep:=-0.002"], "timestep"),
-        "startup_sim_missing_scenario": ("sim", ["scenario:=/nonexistent/scene.yaml"], "nonexistent"),
-    }
-
-
-def _run_startup(node: str, params: list[str], env: dict, timeout_s: float = 90.0) -> tuple[int | None, str, float]:
-    """(exit code or None if it kept running, its output, wall time [s]) of one node start."""
-    from latent_planner_ros.node_suite import find_params_file, node_argv
-
-    argv = node_argv(node, params, find_params_file(node), use_sim_time=False)
-    t0 = time.monotonic()
-    try:
-        proc = subprocess.run(argv, env=env, capture_output=True, text=True, timeout=timeout_s)
-    except subprocess.TimeoutExpired as err:
-        out = f"still running after {timeout_s:g} s: {err.stdout or ''}{err.stderr or ''}"
-        return None, out, time.monotonic() - t0
-    return proc.returncode, proc.stdout + proc.stderr, time.monotonic() - t0
-
-
-def run_startup_group(domain_id: int | None = None, workers: int = 2) -> list[CaseResult]:
-    """Start each misconfigured node alone; it must exit non-zero with a clear 'cannot start: <reason>'."""
-    from latent_planner_ros.node_suite import suite_env
-
-    env = suite_env(domain_id, headless=True)
-    results = []
-    with tempfile.TemporaryDirectory(prefix="faults_startup_") as tmp:
-        cases = startup_cases(Path(tmp))
-        with concurrent.futures.ThreadPoolExecutor(max_workers=workers) as pool:
-            futures = {
-                name: (pool.submit(_run_startup, node, params, env), text)
-                for name, (node, params, text) in cases.items()
-            }
-            for name, (future, text) in futures.items():
-                code, output, took = future.result()
-                r = CaseResult(name, "startup")
-                lines = [x for x in output.splitlines() if "cannot start" in x]
-                r.checks["exits non-zero"] = code not in (None, 0)
-                r.checks["clear error at start"] = any(text in x for x in lines)
-                r.notes.append(f"exit {code}: {lines[0].strip() if lines else output[-300:]}")
-                r.checks["no traceback"] = "Traceback" not in output
-                r.duration_s = took
-                r.survived = all(r.checks.values())
-                results.append(r)
-    return results
 
 
 # ---------------------------------------------------------------------------------------------- groups
