@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-BACKENDS = ("learned", "geometric", "none")
+BACKENDS = ("learned", "geometric", "cylinders", "none")
 
 
 @dataclass
@@ -29,7 +29,8 @@ class AmpLsConfig:
     use_orientation: bool = True
     """orientation loss and tolerance (False: position only)"""
     collision_backend: str = "learned"
-    """"learned" (scene embedding + collision predictor), "geometric" (spheres vs cloud) or "none\""""
+    """"learned" (scene embedding + collision predictor), "geometric" (spheres vs cloud), "cylinders" (LSPP: the
+    obstacle classifier on state-based cylinders) or "none\""""
     col_threshold: float = 0.2
     """gamma_col: a decoded state with p(collision) above this is not accepted"""
     interp_steps: int = 15

@@ -6,8 +6,9 @@ from latent_planner_ros.planning.collision_backend import CollisionBackend, NoCo
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 
 
-def make_backend(name: str, collision_checkpoint: str = "") -> CollisionBackend:
-    """ "learned" (scene embeddings + collision predictor), "geometric" (spheres vs cloud) or "none".
+def make_backend(name: str, collision_checkpoint: str = "", cylinder_checkpoint: str = "") -> CollisionBackend:
+    """ "learned" (scene embeddings + collision predictor), "geometric" (spheres vs cloud), "cylinders" (LSPP's
+    obstacle classifier on state-based cylinders, exact hard check) or "none".
 
     Raises CheckpointError (learned, missing or bad checkpoint) or ValueError (unknown name).
     """
@@ -19,4 +20,8 @@ def make_backend(name: str, collision_checkpoint: str = "") -> CollisionBackend:
         from latent_planner_ros.planning.learned_backend import LearnedBackend
 
         return LearnedBackend.load(collision_checkpoint or None)
+    if name == "cylinders":
+        from latent_planner_ros.planning.cylinder_backend import CylinderBackend
+
+        return CylinderBackend.load(cylinder_checkpoint or None)
     raise ValueError(f"unknown collision backend {name!r}")
