@@ -4,7 +4,8 @@ Chapter 6, Algorithm 1 is AMP-LS without orientation, with the obstacle loss sum
 cylinder classifier and the GECO multipliers of appendix 6.B.1. Two configurations of the same core:
 
 - `lspp_seed_config`: the seed's planner: one latent trajectory, Adam with alpha_AM = 0.03, T = 300 steps,
-  gamma = 1 cm, GECO obstacle target tau_obs = 0.7 (p = 0.5) (Table 6.2), no explicit collision check.
+  gamma = 1 cm, GECO obstacle target tau_obs = 0.7 (p = 0.5) (Table 6.2), no explicit collision check and
+  no early stop.
 - `lspp_config` (the default): the same losses with this project's additions, each measured by `bench lspp`:
   several latent seeds with restarts, and an exact check of every interpolated state against the cylinders,
   the table and the arm itself.
@@ -31,6 +32,7 @@ def lspp_seed_config(**overrides) -> AmpLsConfig:
         lr=0.03,
         tau_col=0.7,
         self_check=False,
+        patience=300,
     )
     return replace(base, **overrides)
 
