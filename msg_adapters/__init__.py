@@ -3,6 +3,12 @@
 Every refusal raises :class:`AdapterError` (a ValueError) naming the problem.
 """
 
+from msg_adapters.cylinder_markers import (
+    CylinderUpdate,
+    apply_marker_array,
+    cylinders_to_array,
+    cylinders_to_marker_array,
+)
 from msg_adapters.errors import AdapterError
 from msg_adapters.joint_state import joint_state_to_q, q_to_joint_state
 from msg_adapters.point_cloud import cloud_to_fields, cloud_to_xyz, feature_names, xyz_to_cloud
@@ -12,10 +18,14 @@ from msg_adapters.trajectory import ee_path_to_path, joint_path_to_trajectory, p
 
 __all__ = [
     "AdapterError",
+    "CylinderUpdate",
     "PoseTarget",
+    "apply_marker_array",
     "cloud_to_embedding",
     "cloud_to_fields",
     "cloud_to_xyz",
+    "cylinders_to_array",
+    "cylinders_to_marker_array",
     "ee_path_to_path",
     "embedding_to_cloud",
     "feature_names",

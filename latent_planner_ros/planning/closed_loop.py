@@ -151,6 +151,17 @@ class ClosedLoopController:
             self._best_err, self._best_time, self._best_goal = np.inf, now, None
         return True, "goal accepted"
 
+    def clear_goal(self) -> None:
+        """Forget the goal (the arm holds until a new one)."""
+        self.goal = None
+
+    def restart(self, now: float) -> None:
+        """Start afresh at time now [s]: clear a failure, restart the progress watchdog and re-encode the measured
+        state at the next tick (a planner taking over the closed loop from another)."""
+        self._failed = None
+        self._best_err, self._best_time, self._best_goal = np.inf, now, None
+        self.planner.reset()
+
     def set_enabled(self, enabled: bool) -> None:
         self.enabled = enabled
         if enabled:
