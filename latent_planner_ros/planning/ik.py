@@ -3,6 +3,9 @@
 `solve_ik` runs DLS on the SE(3) log error of one seed; `goal_configurations` runs it from several seeds
 (the start, the ready pose, then uniform samples within the joint limits) and keeps distinct solutions that
 a validity function accepts. This is how the OMPL baseline turns a goal pose into joint-space goal states.
+
+A goal whose orientation tolerance is at least pi accepts every orientation (LSPP's position-only goals):
+then DLS runs on the position error alone, with the 3-row position Jacobian, and only the position converges.
 """
 
 from __future__ import annotations
@@ -100,8 +103,15 @@ class IkSearch:
         return f"no valid IK solution: all {self.converged} IK solutions are invalid ({causes})"
 
 
+def is_position_only(goal: Goal) -> bool:
+    """True if the goal accepts any orientation (ori_tol >= pi [rad], the largest rotation angle)."""
+    return goal.ori_tol >= math.pi
+
+
 def solve_ik(panda: PandaModel, goal: Goal, q0: np.ndarray, config: IkConfig, frame: str = EE_FRAME) -> IkSolution:
-    """DLS from q0 (7,) [rad] towards goal's pose of `frame`; q stays within the joint limits."""
+    """DLS from q0 (7,) [rad] towards goal's pose of `frame` (its position only if `is_position_only(goal)`);
+    q stays within the joint limits. ori_err [rad] is reported in both cases."""
+    position_only = is_position_only(goal)
     model = panda.model
     data = model.createData()
     fid = panda.frame_id(frame)
@@ -115,14 +125,18 @@ def solve_ik(panda: PandaModel, goal: Goal, q0: np.ndarray, config: IkConfig, fr
         current = data.oMf[fid]
         pos_err = float(np.linalg.norm(target.translation - current.translation))
         ori_err = float(np.linalg.norm(pin.log3(current.rotation.T @ target.rotation)))
-        if pos_err < pos_tol and ori_err < ori_tol:
+        if pos_err < pos_tol and (position_only or ori_err < ori_tol):
             return IkSolution(q, pos_err, ori_err, it, True)
         if it == config.max_iters:
             break
-        err_se3 = current.actInv(target)  # target seen from the current frame
-        err = pin.log6(err_se3).vector
-        jac = pin.Jlog6(err_se3.inverse()) @ pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)
-        dq = jac.T @ np.linalg.solve(jac @ jac.T + config.damping * np.eye(6), err)
+        if position_only:
+            err = target.translation - current.translation
+            jac = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)[:3]
+        else:
+            err_se3 = current.actInv(target)  # target seen from the current frame
+            err = pin.log6(err_se3).vector
+            jac = pin.Jlog6(err_se3.inverse()) @ pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)
+        dq = jac.T @ np.linalg.solve(jac @ jac.T + config.damping * np.eye(len(err)), err)
         biggest = float(np.abs(dq).max())
         if biggest > config.max_step_rad:
             dq *= config.max_step_rad / biggest
@@ -145,6 +159,8 @@ def goal_configurations(
     """
     t0 = time.perf_counter()
     out = IkSearch()
+    ori_weight = 0.0 if is_position_only(goal) else 1.0  # ranks seeds for the failure report
+    best = math.inf
     seeds = [np.asarray(start_q, dtype=float), Q_READY]
     for i in range(config.n_seeds):
         if time.perf_counter() - t0 > config.timeout_s or len(out.solutions) >= config.max_solutions:
@@ -152,7 +168,8 @@ def goal_configurations(
         seed = seeds[i] if i < len(seeds) else rng.uniform(Q_MIN, Q_MAX)
         sol = solve_ik(panda, goal, seed, config)
         out.attempts += 1
-        if sol.pos_err + sol.ori_err < out.best_pos_err + out.best_ori_err:
+        if sol.pos_err + ori_weight * sol.ori_err < best:
+            best = sol.pos_err + ori_weight * sol.ori_err
             out.best_pos_err, out.best_ori_err = sol.pos_err, sol.ori_err
         if not sol.converged:
             continue

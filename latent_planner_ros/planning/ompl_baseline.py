@@ -133,10 +133,7 @@ class OmplPlanner:
         timings: dict[str, float] = {}
         info: dict = {"planner": PLANNERS[cfg.planner][0]}
 
-        occupancy = OccupancyMap.from_cloud(cloud, cfg.octree_resolution, cfg.min_z)
-        self.checker.set_occupancy(occupancy)
-        timings["octree_s"] = time.perf_counter() - t0
-        info["cloud_points"] = occupancy.points_used
+        self._load_obstacles(cloud, timings, info)
 
         def fail(reason: str) -> PlanResult:
             return self._result(start_q[None], goal, False, reason, t0, timings, info)
@@ -147,8 +144,9 @@ class OmplPlanner:
         why = self.checker.invalid_reason(start_q)
         if why is not None:
             return fail(f"start state invalid: {why}")
-        if occupancy.contains(goal.position):
-            return fail("goal invalid: the goal position is inside an occupied voxel")
+        why = self._goal_blocked(goal)
+        if why is not None:
+            return fail(f"goal invalid: {why}")
 
         t = time.perf_counter()
         ik = goal_configurations(self.panda, goal, start_q, self.checker.invalid_reason, cfg.ik, self._rng)
@@ -190,6 +188,20 @@ class OmplPlanner:
         info["path_states"] = len(q_path)
         q_path = densify(q_path, math.radians(cfg.waypoint_step_deg))
         return self._result(q_path, goal, True, "reached", t0, timings, info)
+
+    def _load_obstacles(self, cloud: np.ndarray | None, timings: dict, info: dict) -> None:
+        """Give the checker the obstacles of this query: the occupancy map of cloud (N, 3) [m]."""
+        t = time.perf_counter()
+        self._occupancy = OccupancyMap.from_cloud(cloud, self.config.octree_resolution, self.config.min_z)
+        self.checker.set_occupancy(self._occupancy)
+        timings["octree_s"] = time.perf_counter() - t
+        info["cloud_points"] = self._occupancy.points_used
+
+    def _goal_blocked(self, goal: Goal) -> str | None:
+        """Why the goal position cannot be reached by any configuration, or None."""
+        if self._occupancy.contains(goal.position):
+            return "the goal position is inside an occupied voxel"
+        return None
 
     def _result(
         self, q_path: np.ndarray, goal: Goal, solved: bool, reason: str, t0: float, timings: dict, info: dict
