@@ -45,13 +45,13 @@ def build_planners(names: list[str], classifier: str | None = None) -> dict:
             planner = make_variant(name, vae, classifier)
             planner.warm_up()
         elif name == "potential_field":
-            from latent_planner_ros.planning.potential_field import PotentialField
+            from latent_planner_ros.planning.potential_field import PotentialFieldPlanner
 
-            planner = PotentialField()
+            planner = PotentialFieldPlanner()
         else:
-            from latent_planner_ros.planning.ompl_baseline import OmplPlanner
             from latent_planner_ros.planning.ompl_baseline_config import OmplConfig
+            from latent_planner_ros.planning.ompl_exact import ExactOmplPlanner
 
-            planner = OmplPlanner(OmplConfig(planner=name, table=True))
+            planner = ExactOmplPlanner(OmplConfig(planner=name, table=True))
         planners[name] = planner
     return planners
