@@ -6,6 +6,13 @@ so a fast camera cannot starve the control loop). Joint states that are malforme
 limits are refused (the last good one goes stale and commands stop). Publishes joint_command (when enabled),
 ~/trajectory, ~/markers, ~/status (with the last cloud's point counts). Services ~/plan (nav_msgs/GetPlan)
 and ~/enable (std_srvs/SetBool).
+
+Cylinder obstacles (LSPP): CYLINDER markers on `obstacles` (visualization_msgs/MarkerArray, standing on the
+table, see msg_adapters.cylinder_markers) are latched state, kept until DELETE/DELETEALL. While the set is not
+empty the closed loop and ~/plan use LSPP (position-only goals; no cloud or embedding needed) and status reports
+`mode: lspp (K cylinders; ...)`, else `mode: amp_ls`. A refused array changes nothing. The planner's cylinders
+are drawn on ~/markers (namespace `obstacles`). The subscription is volatile: publish after the planner is up.
+
 Parameters: PlannerNodeConfig (config/planner.yaml), validated; a bad value is refused with a reason.
 
     python -m latent_planner_ros run planner [--ros-args --params-file config/planner.yaml]
@@ -39,9 +46,14 @@ from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.backends import make_backend
 from latent_planner_ros.planning.closed_loop import ClosedLoopController, TickOutcome
 from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.lspp import make_lspp
+from latent_planner_ros.planning.planner_modes import PlannerModes
 from msg_adapters import (
     AdapterError,
+    apply_marker_array,
     cloud_to_xyz,
+    cylinders_to_array,
+    cylinders_to_marker_array,
     ee_path_to_path,
     joint_path_to_trajectory,
     joint_state_to_q,
@@ -60,7 +72,7 @@ class PlannerNode(Node):
             self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
         self.config = from_params(PlannerNodeConfig, {n: self.get_parameter(n).value for n in names})
         self.vae, _ = load_vae(self.config.vae_checkpoint or None)
-        self.controller = self._make_controller(self.config, self.vae)
+        self.modes = self._make_modes(self.config, self.vae)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._last_error = ""
         self._last_outcome = TickOutcome(None, "starting", "starting")
@@ -68,6 +80,9 @@ class PlannerNode(Node):
         self._cloud_time = 0.0
         self._last_cloud = None  # (points (N, 3), receipt time [s]) of the last converted cloud
         self._cloud_points = (0, 0)  # points received, points used (finite) of the last cloud
+        self._cylinders: dict = {}  # {(ns, id): (x, y, h, r) [m]} of the accepted obstacle markers
+        self._obstacle_notes = ""
+        self._markers_published = 0  # obstacle markers drawn on ~/markers so far
 
         self.pub_command = self.create_publisher(JointState, "joint_command", 10)
         self.pub_traj = self.create_publisher(JointTrajectory, "~/trajectory", 10)
@@ -76,6 +91,7 @@ class PlannerNode(Node):
         self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
         self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10)
         self.create_subscription(PointCloud2, "camera/points", self._on_cloud, 2)
+        self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, 10)
         if self.config.amp_ls.collision_backend == "learned":
             self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2)
         self.create_service(GetPlan, "~/plan", self._on_plan)
@@ -83,17 +99,20 @@ class PlannerNode(Node):
         self._tick_timer = self.create_timer(1.0 / self.config.closed_loop.rate_hz, self._on_tick)
         self._status_timer = self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)
         self.get_logger().info(
-            f"AMP-LS ready: backend {self.config.amp_ls.collision_backend}, "
+            f"AMP-LS ready: backend {self.config.amp_ls.collision_backend} (LSPP on cylinder obstacles), "
             f"{self.config.closed_loop.rate_hz:.0f} Hz, enabled={self.config.enabled}"
         )
 
-    def _make_controller(self, config: PlannerNodeConfig, vae) -> ClosedLoopController:
+    def _make_modes(self, config: PlannerNodeConfig, vae) -> PlannerModes:
+        """The AMP-LS and LSPP closed loops; CheckpointError for a missing or bad checkpoint."""
         backend = make_backend(config.amp_ls.collision_backend, config.collision_checkpoint)
-        planner = AmpLs(vae, backend, config.amp_ls)
-        planner.warm_up()
-        controller = ClosedLoopController(planner, config.closed_loop)
-        controller.set_enabled(config.enabled)
-        return controller
+        lspp = make_lspp(vae, config.lspp, config.lspp_checkpoint or None, config.lspp_check)
+        loops = [ClosedLoopController(p, config.closed_loop) for p in (AmpLs(vae, backend, config.amp_ls), lspp)]
+        for loop in loops:
+            loop.planner.warm_up()
+        modes = PlannerModes(*loops)
+        modes.set_enabled(config.enabled)
+        return modes
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -114,19 +133,20 @@ class PlannerNode(Node):
                 if config.vae_checkpoint == self.config.vae_checkpoint
                 else load_vae(config.vae_checkpoint or None)[0]
             )
-            controller = self._make_controller(config, vae)
+            modes = self._make_modes(config, vae)
         except (ConfigError, ValueError, TypeError, CheckpointError) as err:
             return SetParametersResult(successful=False, reason=str(err))
-        goal = self.controller.goal
+        goal, cylinders = self.modes.goal, self.modes.cylinders
         if config.closed_loop.rate_hz != self.config.closed_loop.rate_hz:  # the step size follows the rate
             self._tick_timer = self._replace_timer(self._tick_timer, config.closed_loop.rate_hz, self._on_tick)
         if config.status_rate_hz != self.config.status_rate_hz:
             self._status_timer = self._replace_timer(self._status_timer, config.status_rate_hz, self._publish_status)
-        self.config, self.controller, self.vae = config, controller, vae
+        self.config, self.modes, self.vae = config, modes, vae
         if self._last_cloud is not None:
             self._apply_cloud(*self._last_cloud)
+        self.modes.set_cylinders(cylinders, self._now())
         if goal is not None:
-            self.controller.set_goal(goal, self._now())
+            self.modes.set_goal(goal, self._now())
         return SetParametersResult(successful=True)
 
     def _replace_timer(self, timer, rate_hz: float, callback):
@@ -141,7 +161,7 @@ class PlannerNode(Node):
         except AdapterError as err:
             self._error(f"joint_states refused: {err}")
             return
-        accepted, reason = self.controller.set_joint_state(q, self._now())
+        accepted, reason = self.modes.set_joint_state(q, self._now())
         if not accepted:
             self._error(f"joint_states refused: {reason}")
 
@@ -164,26 +184,48 @@ class PlannerNode(Node):
         self._apply_cloud(cloud, self._cloud_time)
 
     def _apply_cloud(self, cloud, received: float) -> None:
-        """Hand a cloud (N, 3) [m] received at `received` [s] to the backend and the goal checks."""
-        backend = self.controller.planner.backend
+        """Hand a cloud (N, 3) [m] received at `received` [s] to the AMP-LS backend and the goal checks."""
+        self.modes.lspp.set_cloud(cloud)  # LSPP plans around the cylinders; the cloud only checks goals
+        controller = self.modes.amp_ls
+        backend = controller.planner.backend
         if backend.name == "geometric":
-            self.controller.set_scene(cloud, received, cloud=cloud)
+            controller.set_scene(cloud, received, cloud=cloud)
             return
         if hasattr(backend, "set_cloud"):  # learned: the raw cloud feeds the hard check of each step
             backend.set_cloud(cloud)
-        self.controller.set_cloud(cloud)
+        controller.set_cloud(cloud)
 
     def _on_embedding(self, msg: PointCloud2) -> None:
         try:
-            embedding = self.controller.planner.backend.embedding_from_msg(msg)
+            embedding = self.modes.amp_ls.planner.backend.embedding_from_msg(msg)
         except (AdapterError, ValueError) as err:
             self._error(f"scene_embedding refused: {err}")
             return
-        self.controller.set_scene(embedding, self._now())
+        self.modes.amp_ls.set_scene(embedding, self._now())
+
+    def _on_obstacles(self, msg: MarkerArray) -> None:
+        """Apply CYLINDER markers to the obstacle set; a refused array leaves the set as it was."""
+        cfg = self.config
+        before = self.modes.describe()
+        try:
+            update = apply_marker_array(msg, self._cylinders, cfg.obstacle_tilt_tol_deg, cfg.obstacle_z_tol_m)
+            cylinders = cylinders_to_array(update.cylinders)
+            dropped = self.modes.set_cylinders(cylinders, self._now())
+        except (AdapterError, ValueError) as err:
+            self._error(f"obstacles refused: {err}")
+            return
+        self._cylinders, self._obstacle_notes = update.cylinders, "; ".join(update.notes)
+        if dropped:
+            self._error(f"goal dropped: {dropped}")
+        if self.modes.describe() != before:
+            self.get_logger().info(f"mode: {self.modes.describe()}")
+        stamp = self.get_clock().now().to_msg()
+        self.pub_markers.publish(cylinders_to_marker_array(cylinders, stamp=stamp, previous=self._markers_published))
+        self._markers_published = len(cylinders)
 
     def _goal_from(self, msg: PoseStamped, tolerance: float = 0.0) -> Goal:
         target = pose_stamped_to_target(msg)
-        cfg = self.config.amp_ls
+        cfg = self.modes.active.planner.config
         pos_tol = tolerance if tolerance > 0 else cfg.pos_tol
         return Goal(target.position, target.rotation, pos_tol=pos_tol, ori_tol=cfg.ori_tol)
 
@@ -194,20 +236,20 @@ class PlannerNode(Node):
             self._error(f"goal_pose refused: {err}")
             return
         self._use_latest_cloud()
-        accepted, reason = self.controller.set_goal(goal, self._now())
+        accepted, reason = self.modes.set_goal(goal, self._now())
         if not accepted:
             self._error(reason)
 
     # -- control ------------------------------------------------------------------------------------
     def _on_tick(self) -> None:
         self._use_latest_cloud()
-        outcome = self.controller.tick(self._now())
+        outcome = self.modes.tick(self._now())
         self._last_outcome = outcome
         if outcome.command is not None:
             self.pub_command.publish(q_to_joint_state(outcome.command, stamp=self.get_clock().now().to_msg()))
 
     def _on_enable(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
-        self.controller.set_enabled(bool(request.data))
+        self.modes.set_enabled(bool(request.data))
         response.success, response.message = True, "enabled" if request.data else "disabled"
         return response
 
@@ -215,7 +257,8 @@ class PlannerNode(Node):
         response.plan = Path()
         response.plan.header.frame_id = "world"
         response.plan.header.stamp = self.get_clock().now().to_msg()
-        q = self.controller.fresh_joint_state(self._now())
+        controller = self.modes.active
+        q = controller.fresh_joint_state(self._now())
         if q is None:
             self._error("plan refused: no fresh joint states")
             return response
@@ -225,19 +268,19 @@ class PlannerNode(Node):
             self._error(f"plan refused: {err}")
             return response
         self._use_latest_cloud()
-        ok, reason = self.controller.check_goal(goal)
+        ok, reason = self.modes.check_goal(goal)
         if not ok:
             self._error(f"plan {reason}")
             return response
-        planner = self.controller.planner
-        scene = self.controller.scene if planner.config.use_collision else None
+        planner = controller.planner
+        scene = controller.scene if planner.config.use_collision else None
         if planner.config.use_collision and scene is None:
             self._error("plan refused: no scene received yet")
             return response
         t0 = time.perf_counter()
         result = planner.plan(q, goal, scene)
         self.get_logger().info(
-            f"plan: {'success' if result.success else 'failure'} ({result.reason}) "
+            f"plan ({planner.name}): {'success' if result.success else 'failure'} ({result.reason}) "
             f"in {time.perf_counter() - t0:.3f} s, "
             f"{len(result.q_path)} states, error {result.final_pos_err_m * 1000:.1f} mm"
         )
@@ -253,10 +296,12 @@ class PlannerNode(Node):
     def _publish_status(self) -> None:
         o = self._last_outcome
         status = DiagnosticStatus(level=bytes([o.level]), name="planner", message=f"{o.state}: {o.reason}")
-        status.hardware_id = "amp_ls"
+        status.hardware_id = self.modes.active.planner.name
         points_in, points_used = self._cloud_points
         values = {
             "state": o.state,
+            "mode": self.modes.describe(),
+            "obstacles_note": self._obstacle_notes,
             "last_error": self._last_error,
             "cloud_points_in": points_in,
             "cloud_points_used": points_used,

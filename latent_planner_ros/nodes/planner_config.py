@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig
+from latent_planner_ros.planning.cylinder_backend import CHECKS
+from latent_planner_ros.planning.lspp import lspp_config
 
 
 @dataclass
@@ -16,11 +19,33 @@ class PlannerNodeConfig:
     """VAE checkpoint stem; empty = the shipped default"""
     collision_checkpoint: str = ""
     """collision-predictor checkpoint stem (learned backend); empty = the shipped default"""
+    lspp_checkpoint: str = ""
+    """LSPP obstacle-classifier checkpoint stem (cylinder obstacles on `obstacles`); empty = the shipped default"""
+    lspp_check: str = "exact"
+    """LSPP's hard check of interpolated states: "exact" (meshes vs the cylinders) or "none" (the seed's)"""
+    obstacle_tilt_tol_deg: float = 2.0
+    """largest tilt [deg] of a cylinder marker's axis from the vertical; more is refused"""
+    obstacle_z_tol_m: float = 0.01
+    """largest difference [m] between a cylinder marker's pose.position.z and scale.z / 2 (standing on z = 0)"""
     status_rate_hz: float = 2.0
     """status publishing rate [Hz]"""
     closed_loop: ClosedLoopConfig = field(default_factory=ClosedLoopConfig)
     amp_ls: AmpLsConfig = field(default_factory=AmpLsConfig)
+    lspp: AmpLsConfig = field(default_factory=lspp_config)
+    """the planner used while cylinder obstacles are set (position-only goals)"""
 
     def __post_init__(self) -> None:
         if not (isinstance(self.status_rate_hz, int | float) and 0 < self.status_rate_hz <= 100):
             raise ValueError(f"status_rate_hz must be in (0, 100], got {self.status_rate_hz!r}")
+        if self.lspp_check not in CHECKS:
+            raise ValueError(f"lspp_check must be one of {CHECKS}, got {self.lspp_check!r}")
+        for name, high in (("obstacle_tilt_tol_deg", 45.0), ("obstacle_z_tol_m", 1.0)):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) and 0 <= v <= high):
+                raise ValueError(f"{name} must be a number in [0, {high}], got {v!r}")
+        lspp = self.lspp
+        if lspp.collision_backend != "cylinders" or not lspp.use_collision or lspp.use_orientation:
+            raise ValueError(
+                "lspp must plan around the cylinders with position-only goals: "
+                "lspp.collision_backend = cylinders, lspp.use_collision = true, lspp.use_orientation = false"
+            )

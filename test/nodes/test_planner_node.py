@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
@@ -152,3 +153,148 @@ def test_planner_node_plans_reaches_and_refuses_bad_goals(backend):
     assert out["closed_loop_reached"], (out, logs)
     assert out["commands"] > 0 and out["violations"] == [], out
     assert all(p.returncode == 0 for p in procs), logs
+
+
+LSPP_PROBE = r"""
+import json, sys, time
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.srv import GetPlan
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory
+from visualization_msgs.msg import Marker, MarkerArray
+from latent_planner_ros.robot.limits import Q_READY
+from latent_planner_ros.robot.panda import load_panda
+from msg_adapters import cylinders_to_marker_array, path_to_arrays, q_to_joint_state, target_to_pose_stamped
+from msg_adapters import trajectory_to_arrays
+
+cylinders, goal_position = np.array(json.loads(sys.argv[1])), np.array(json.loads(sys.argv[2]))
+rclpy.init()
+node = rclpy.create_node("lspp_probe")
+state = {"q": Q_READY.copy(), "status": "", "traj": None, "commands": []}
+
+def on_command(msg):  # a fake arm: it is wherever the last command sent it
+    state["q"] = np.asarray(msg.position[:7], dtype=float)
+    state["commands"].append(state["q"].tolist())
+
+def on_status(msg):
+    s = msg.status[0]
+    state["status"] = s.message + " " + " ".join(f"{kv.key}={kv.value}" for kv in s.values)
+
+def on_traj(msg):
+    state["traj"] = trajectory_to_arrays(msg)[0].tolist()
+
+node.create_subscription(JointState, "joint_command", on_command, 10)
+node.create_subscription(DiagnosticArray, "planner/status", on_status, 10)
+node.create_subscription(JointTrajectory, "planner/trajectory", on_traj, 10)
+joints = node.create_publisher(JointState, "joint_states", 10)
+node.create_timer(0.05, lambda: joints.publish(q_to_joint_state(state["q"], stamp=node.get_clock().now().to_msg())))
+obstacles = node.create_publisher(MarkerArray, "obstacles", 10)
+goal_pub = node.create_publisher(PoseStamped, "goal_pose", 10)
+
+def spin_until(cond, timeout):
+    end = time.monotonic() + timeout
+    while not cond() and time.monotonic() < end:
+        rclpy.spin_once(node, timeout_sec=0.05)
+    return cond()
+
+out = {}
+assert spin_until(lambda: "mode=" in state["status"], 120.0), "no planner status"
+out["before"] = state["status"]
+assert spin_until(lambda: obstacles.get_subscription_count() > 0, 10.0), "planner not subscribed to obstacles"
+obstacles.publish(cylinders_to_marker_array(cylinders, ns="test"))
+spin_until(lambda: "mode=lspp" in state["status"], 10.0)
+out["lspp"] = state["status"]
+
+goal = target_to_pose_stamped(goal_position, np.array([1.0, 0.0, 0.0, 0.0]))  # orientation ignored by LSPP
+client = node.create_client(GetPlan, "planner/plan")
+assert client.wait_for_service(timeout_sec=10.0), "no planner/plan service"
+future = client.call_async(GetPlan.Request(goal=goal))
+rclpy.spin_until_future_complete(node, future, timeout_sec=60.0)
+positions = path_to_arrays(future.result().plan)[0]
+out["plan_end"] = positions[-1].tolist() if len(positions) else None
+spin_until(lambda: state["traj"] is not None, 5.0)
+out["plan_q"] = state["traj"]
+
+state["commands"].clear()
+goal_pub.publish(goal)
+panda = load_panda()
+reached = lambda: np.linalg.norm(panda.fk(state["q"]).translation - goal_position) < 0.015
+out["closed_loop_reached"] = bool(spin_until(reached, 30.0))
+out["closed_loop_status"] = state["status"]
+out["commands"] = state["commands"]
+
+bad = cylinders_to_marker_array(cylinders, ns="test")
+bad.markers[0].pose.position.x = float("nan")
+obstacles.publish(bad)
+spin_until(lambda: "obstacles refused" in state["status"], 5.0)
+out["after_nan"] = state["status"]
+obstacles.publish(MarkerArray(markers=[Marker(action=Marker.DELETEALL)]))
+spin_until(lambda: "mode=amp_ls" in state["status"], 5.0)
+out["after_clear"] = state["status"]
+print("RESULT " + json.dumps(out), flush=True)
+"""
+
+
+@pytest.fixture(scope="module")
+def lspp_checkpoint(tmp_path_factory) -> str:
+    """ "" (the shipped classifier) when it is in the repo, else the stem of a quickly trained one (~20 s)."""
+    from latent_planner_ros.models.cylinder_classifier import shipped_classifier_path
+
+    if shipped_classifier_path().with_suffix(".safetensors").exists():
+        return ""
+    out = tmp_path_factory.mktemp("lspp")
+    args = ["--iterations", "300", "--samples", "4000", "--val-samples", "1000"]
+    cmd = [sys.executable, "-m", "latent_planner_ros", "train", "lspp", *args, "--data", str(out / "data")]
+    subprocess.run([*cmd, "--out", str(out / "run")], cwd=REPO, check=True, capture_output=True, timeout=300)
+    return str(out / "run" / "best")
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_planner_node_switches_to_lspp_on_cylinder_markers(lspp_checkpoint):
+    """Cylinder markers switch the node to LSPP (no scene needed); plans and the closed loop avoid the cylinder;
+    a NaN marker is refused; DELETEALL returns to AMP-LS, which holds for its missing scene as before."""
+    from latent_planner_ros.data.cylinders import cylinder_scene
+    from latent_planner_ros.data.labels import CollisionLabeler
+    from latent_planner_ros.robot.limits import Q_READY
+    from latent_planner_ros.robot.panda import load_panda
+
+    # the cylinder blocks the direct joint-space motion from the ready pose to a configuration at the goal
+    cylinders = [[0.4, -0.15, 0.6, 0.05]]
+    goal_q = Q_READY + np.array([-0.9, 0.35, 0.0, 0.25, 0.0, -0.1, 0.0])
+    goal = load_panda().fk(goal_q).translation.tolist()
+    labeler = CollisionLabeler(cylinder_scene(np.array(cylinders)))
+    assert labeler.label(np.linspace(Q_READY, goal_q, 50)).any() and not labeler.label(goal_q[None]).any()
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    params = ["--params-file", "config/planner.yaml", "-p", "status_rate_hz:=10.0"]
+    if lspp_checkpoint:
+        params += ["-p", f"lspp_checkpoint:={lspp_checkpoint}"]
+    planner = _run("planner", params, env)
+    try:
+        probe = subprocess.run(
+            [sys.executable, "-c", LSPP_PROBE, json.dumps(cylinders), json.dumps(goal)],
+            cwd=REPO,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=240,
+        )
+    finally:
+        logs = _stop([planner])
+    line = next((x for x in probe.stdout.splitlines() if x.startswith("RESULT ")), None)
+    assert line, f"probe failed:\n{probe.stdout}\n{probe.stderr[-3000:]}\n{logs}"
+    out = json.loads(line[len("RESULT ") :])
+    assert "mode=amp_ls" in out["before"], out["before"]
+    assert "mode=lspp (1 cylinder; goals: position only)" in out["lspp"], out["lspp"]
+    assert out["plan_end"] is not None and np.linalg.norm(np.subtract(out["plan_end"], goal)) < 0.0101, out
+    assert not labeler.label(np.array(out["plan_q"])).any(), "the plan touches the cylinder"
+    assert out["commands"] and not labeler.label(np.array(out["commands"])).any(), "a command touches the cylinder"
+    assert out["closed_loop_reached"], out["closed_loop_status"]
+    assert "scene" not in out["closed_loop_status"].split(" mode=")[0], out["closed_loop_status"]  # no hold for it
+    assert "obstacles refused" in out["after_nan"] and "NaN" in out["after_nan"], out["after_nan"]
+    assert "mode=lspp (1 cylinder" in out["after_nan"], out["after_nan"]  # the last valid set is kept
+    assert "mode=amp_ls" in out["after_clear"] and "scene never received" in out["after_clear"], out["after_clear"]
+    assert planner.returncode == 0, logs
