@@ -127,12 +127,8 @@ def _scenarios(args, counts: list[int]) -> dict[int, list[LsppScenario]]:
         have, old = load_scenarios(cache)
         if old == meta:
             return have
-    import torch
 
-    from latent_planner_ros.models.vae_io import load_vae
-
-    torch.set_num_threads(1)
-    scenarios = generate_scenarios(counts, args.scenes, args.seed, load_vae()[0])
+    scenarios = generate_scenarios(counts, args.scenes, args.seed, workers=args.workers)
     save_scenarios(cache, scenarios, meta)
     return scenarios
 

@@ -94,19 +94,41 @@ def position_goal(target: np.ndarray):
     return Goal(np.asarray(target, dtype=float), np.eye(3), pos_tol=0.01, ori_tol=2 * np.pi)
 
 
-def generate_scenarios(
-    counts: list[int], n: int, seed: int, vae, progress: bool = True
-) -> dict[int, list[LsppScenario]]:
-    """n scenarios for each obstacle count in `counts`; the filter is LSPP without the obstacle loss on `vae`."""
+def _draw_count(k: int, n: int, seed: int, vae=None, progress: bool = False) -> list[LsppScenario]:
+    """n scenarios with k cylinders; the filter is LSPP without the obstacle loss (the shipped VAE if None)."""
+    import torch
+
+    from latent_planner_ros.models.vae_io import load_vae
     from latent_planner_ros.planning.amp_ls import AmpLs
     from latent_planner_ros.planning.collision_backend import NoCollision
     from latent_planner_ros.planning.lspp import lspp_seed_config
 
-    out: dict[int, list[LsppScenario]] = {}
-    for k in counts:
-        no_col = AmpLs(vae, NoCollision(), lspp_seed_config(use_collision=False), seed=seed)
-        gen = ScenarioGenerator(no_col, seed=seed * 100 + k)
-        out[k] = [gen.draw(k) for _ in tqdm(range(n), desc=f"scenarios, {k} cylinders", disable=not progress)]
+    torch.set_num_threads(1)
+    no_col = AmpLs(
+        vae if vae is not None else load_vae()[0], NoCollision(), lspp_seed_config(use_collision=False), seed=seed
+    )
+    gen = ScenarioGenerator(no_col, seed=seed * 100 + k)
+    return [gen.draw(k) for _ in tqdm(range(n), desc=f"scenarios, {k} cylinders", disable=not progress)]
+
+
+def generate_scenarios(
+    counts: list[int], n: int, seed: int, vae=None, progress: bool = True, workers: int = 1
+) -> dict[int, list[LsppScenario]]:
+    """n scenarios for each obstacle count in `counts` (each count from its own seed, so the result does not
+    depend on `workers`); the filter planner runs on `vae` (default: the shipped VAE)."""
+    if workers <= 1:
+        return {k: _draw_count(k, n, seed, vae, progress) for k in counts}
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(workers, mp.get_context("spawn")) as ex:
+        futures = {k: ex.submit(_draw_count, k, n, seed) for k in counts}
+        bar = tqdm(total=len(counts), desc="scenario sets", disable=not progress)
+        out = {}
+        for k in counts:
+            out[k] = futures[k].result()
+            bar.update()
+        bar.close()
     return out
 
 
