@@ -1,0 +1,46 @@
+"""`bench lspp` end to end on one scenario per count, its scenario file, and its refusals."""
+
+import json
+
+import pytest
+
+from latent_planner_ros.bench.lspp import main as bench_lspp
+
+FIELDS = {"n", "success", "success_ci95", "time_median_s", "path_len_median", "unsafe"}
+
+
+@pytest.mark.slow
+def test_bench_lspp_writes_the_table_and_reuses_its_scenarios(tmp_path):
+    out = tmp_path / "out"
+    argv = ["--out", str(out), "--scenes", "1", "--obstacles", "1,2", "--workers", "1"]
+    assert bench_lspp([*argv, "--planners", "lspp,rrtconnect,potential_field"]) == 0
+    data = json.loads((out / "lspp.json").read_text())
+    assert set(data["obstacles"]) == {"1", "2"}
+    for planners in data["obstacles"].values():
+        assert set(planners) == {"lspp", "rrtconnect", "potential_field"}
+        for stats in planners.values():
+            assert FIELDS <= set(stats) and stats["n"] == 1
+            assert stats["success_ci95"][0] <= stats["success"] <= stats["success_ci95"][1]
+    scenarios = json.loads((out / "lspp_scenarios.json").read_text())
+    assert [len(s["cylinders"]) for s in scenarios["obstacles"]["2"]] == [2]
+    assert (out / "lspp_success.png").is_file() and "Planning success rate" in (out / "lspp.md").read_text()
+    # the same scenarios from the file: the seed variant on them
+    again = [
+        "--out",
+        str(tmp_path / "again"),
+        "--scenarios",
+        str(out / "lspp_scenarios.json"),
+        "--planners",
+        "lspp_seed",
+    ]
+    assert bench_lspp([*again, "--scenes", "1", "--obstacles", "2", "--workers", "1"]) == 0
+    rows = json.loads((tmp_path / "again" / "lspp.json").read_text())["rows"]
+    assert [(r["obstacles"], r["planner"]) for r in rows] == [(2, "lspp_seed")]
+
+
+@pytest.mark.parametrize(
+    "bad", [["--planners", "lspp,teleport"], ["--obstacles", "0"], ["--scenes", "0"], ["--obstacles", "x"]]
+)
+def test_bad_arguments_are_refused(tmp_path, bad, capsys):
+    assert bench_lspp(["--out", str(tmp_path), *bad]) == 2
+    assert "bench lspp:" in capsys.readouterr().err
