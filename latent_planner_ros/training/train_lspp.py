@@ -89,6 +89,33 @@ def evaluate(model: CylinderClassifier, z: torch.Tensor, o: torch.Tensor, c: np.
             "val_precision": prec, "val_recall": rec}  # fmt: skip
 
 
+def plot_history(history: list[dict], path: Path) -> Path:
+    """Training curve: train/validation loss and validation accuracy, AUROC, recall, precision vs iteration."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    it = [h["iteration"] for h in history]
+    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.6))
+    a.plot(it, [h["train_loss"] for h in history], label="train BCE (EMA)")
+    a.plot(it, [h["val_loss"] for h in history], label="validation BCE")
+    a.set_yscale("log")
+    a.set_xlabel("iteration")
+    a.legend()
+    for key in ("val_acc", "val_auroc", "val_recall", "val_precision"):
+        b.plot(it, [h[key] for h in history], label=key[4:])
+    b.set_ylim(0.85, 1.0)
+    b.set_xlabel("iteration")
+    b.legend()
+    for ax in (a, b):
+        ax.grid(alpha=0.3)
+    fig.suptitle("LSPP obstacle classifier (held-out validation set)")
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
 def train(args: argparse.Namespace, argv: list[str]) -> int:
     torch.set_num_threads(args.threads)
     torch.manual_seed(args.seed)
@@ -173,6 +200,7 @@ def train(args: argparse.Namespace, argv: list[str]) -> int:
     bar.close()
     if metrics:
         print(json.dumps(metrics, indent=1))
+        plot_history(state["history"], args.out / "training.png")
     print(
         f"[train lspp] {state['iteration']} iterations in {state['elapsed_s'] / 60:.1f} min; best: {args.out / 'best'}"
     )

@@ -13,6 +13,7 @@ def test_a_tiny_run_learns_and_resumes(tmp_path):
     assert main(["--iterations", "200", *common]) == 0
     history = json.loads((tmp_path / "run" / "history.json").read_text())
     assert [h["iteration"] for h in history] == [100, 200]
+    assert (tmp_path / "run" / "training.png").is_file()
     assert history[-1]["val_auroc"] > 0.65  # above chance (0.5) after 200 steps of a small net
     model, meta = load_classifier(tmp_path / "run" / "best")
     assert meta["training"]["command"].startswith("python -m latent_planner_ros train lspp")
