@@ -41,6 +41,8 @@ def startup_cases(tmp: Path) -> dict[str, tuple[str, list[str], str]]:
             ["amp_ls.collision_backend:=learned", f"collision_checkpoint:={missing}"],
             "checkpoint file missing",
         ),
+        "startup_planner_missing_lspp": ("planner", [f"lspp_checkpoint:={missing}"], "checkpoint file missing"),
+        "startup_planner_wrong_lspp": ("planner", [f"lspp_checkpoint:={vae}"], "is not an LSPP cylinder classifier"),
         "startup_encoder_corrupt_checkpoint": ("scene_encoder", [f"checkpoint:={corrupt}"], "truncated or corrupt"),
         "startup_encoder_wrong_checkpoint": ("scene_encoder", [f"checkpoint:={vae}"], "is not a collision network"),
         "startup_planner_bad_rate": ("planner", ["closed_loop.rate_hz:=-5.0"], "rate_hz must be a positive"),
