@@ -18,8 +18,8 @@ import pinocchio as pin
 from scipy.spatial import cKDTree
 
 from latent_planner_ros.data.link_geometry import LinkGeometry, link_geometry
+from latent_planner_ros.planning.state_validity import StateValidity
 from latent_planner_ros.robot.collision import CollisionChecker
-from latent_planner_ros.robot.limits import Q_MAX, Q_MIN
 from latent_planner_ros.robot.panda import PandaModel, load_panda
 
 _IDENTITY = coal.Transform3s()
@@ -78,7 +78,7 @@ class OccupancyMap:
         )
 
 
-class OctreeChecker:
+class OctreeChecker(StateValidity):
     """Says whether (and why not) a configuration is valid. Not thread-safe (holds pinocchio Data).
 
     Args:
@@ -87,6 +87,8 @@ class OctreeChecker:
         padding: clearance [m] the links must keep from occupied voxels (coal security margin).
         panda: the pinocchio model (default: the shared one).
     """
+
+    obstacle_hit = "in an occupied voxel"
 
     def __init__(
         self,
@@ -135,29 +137,3 @@ class OctreeChecker:
             if hits and first_only:
                 break
         return hits
-
-    def invalid_reason(self, q: np.ndarray) -> str | None:
-        """None if q (7,) [rad] is valid, else the first reason found ("self-collision", ...)."""
-        self.checks += 1
-        q = np.asarray(q, dtype=float)
-        if not np.all(np.isfinite(q)) or np.any(q < Q_MIN) or np.any(q > Q_MAX):
-            return "outside the joint limits"
-        self_hit, table_hit = self.self_checker.collisions(q) if self.self_checker.in_collision(q) else (False, False)
-        if self_hit:
-            return "self-collision"
-        if table_hit:
-            return "table collision"
-        links = self.colliding_links(q, first_only=True)
-        if links:
-            return f"{links[0]} in an occupied voxel"
-        return None
-
-    def is_valid(self, q: np.ndarray) -> bool:
-        return self.invalid_reason(q) is None
-
-    def first_invalid(self, q_path: np.ndarray) -> int:
-        """Index of the first invalid configuration of q_path (T, 7) [rad], or -1 if all are valid."""
-        for i, q in enumerate(np.atleast_2d(q_path)):
-            if not self.is_valid(q):
-                return i
-        return -1

@@ -17,15 +17,15 @@ from latent_planner_ros.data.link_geometry import LinkGeometry, link_geometry
 from latent_planner_ros.data.obstacle_geometry import coal_geometry
 from latent_planner_ros.data.obstacles import bounding_sphere
 from latent_planner_ros.data.scene import Scene
+from latent_planner_ros.planning.state_validity import StateValidity
 from latent_planner_ros.robot.collision import CollisionChecker
-from latent_planner_ros.robot.limits import Q_MAX, Q_MIN
 from latent_planner_ros.robot.panda import PandaModel, load_panda
 
 _POINT_RADIUS = 1e-3
 """Radius [m] of the probe sphere of `contains`."""
 
 
-class SceneChecker:
+class SceneChecker(StateValidity):
     """Says whether (and why not) a configuration is valid in a known scene. Not thread-safe.
 
     Same interface as `OctreeChecker` (`is_valid`, `invalid_reason`, `first_invalid`, `checks`), with
@@ -104,29 +104,3 @@ class SceneChecker:
                 if coal.collide(geometry, placed, geom_o, tf_o, self._request, self._result):
                     return True
         return False
-
-    def invalid_reason(self, q: np.ndarray) -> str | None:
-        """None if q (7,) [rad] is valid, else the first reason found ("self-collision", ...)."""
-        self.checks += 1
-        q = np.asarray(q, dtype=float)
-        if not np.all(np.isfinite(q)) or np.any(q < Q_MIN) or np.any(q > Q_MAX):
-            return "outside the joint limits"
-        self_hit, table_hit = self.self_checker.collisions(q) if self.self_checker.in_collision(q) else (False, False)
-        if self_hit:
-            return "self-collision"
-        if table_hit:
-            return "table collision"
-        links = self.colliding_links(q, first_only=True)
-        if links:
-            return f"{links[0]} touches an obstacle"
-        return None
-
-    def is_valid(self, q: np.ndarray) -> bool:
-        return self.invalid_reason(q) is None
-
-    def first_invalid(self, q_path: np.ndarray) -> int:
-        """Index of the first invalid configuration of q_path (T, 7) [rad], or -1 if all are valid."""
-        for i, q in enumerate(np.atleast_2d(q_path)):
-            if not self.is_valid(q):
-                return i
-        return -1
