@@ -7,7 +7,8 @@ cylinder classifier and the GECO multipliers of appendix 6.B.1. Two configuratio
   gamma = 1 cm, GECO obstacle target tau_obs = 0.7 (p = 0.5) (Table 6.2), no explicit collision check and
   no early stop.
 - `lspp_config` (the default): the same losses with this project's additions, each measured by `bench lspp`:
-  several latent seeds with restarts, and an exact check of every interpolated state against the cylinders,
+  several latent seeds with restarts (48 in total: on 100 validation scenarios with 2 and 4 cylinders, 97
+  solved against 93 with AMP-LS's 8), and an exact check of every interpolated state against the cylinders,
   the table and the arm itself.
 """
 
@@ -39,7 +40,7 @@ def lspp_seed_config(**overrides) -> AmpLsConfig:
 
 def lspp_config(**overrides) -> AmpLsConfig:
     """LSPP with multi-seed search, restarts and exact checks of the interpolated states (the default)."""
-    base = AmpLsConfig(collision_backend="cylinders", use_orientation=False, self_check=True)
+    base = AmpLsConfig(collision_backend="cylinders", use_orientation=False, self_check=True, restarts=48)
     return replace(base, **overrides)
 
 
