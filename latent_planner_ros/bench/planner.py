@@ -62,7 +62,9 @@ def open_loop(planner: AmpLs, problems: list[Problem], label: str) -> dict:
     }
 
 
-def closed_loop(planner: AmpLs, problems: list[Problem], label: str, ticks: int, iterations: int) -> dict:
+def closed_loop(
+    planner: AmpLs, problems: list[Problem], label: str, ticks: int, iterations: int, budget_s: float | None = None
+) -> dict:
     """Tick timings [ms] and closed-loop success (within tolerance by the end, no collision)."""
     tick_ms, successes, collisions = [], 0, 0
     for pr in tqdm(problems, desc=f"closed loop, {label}", dynamic_ncols=True):
@@ -74,7 +76,7 @@ def closed_loop(planner: AmpLs, problems: list[Problem], label: str, ticks: int,
             planner.backend.set_scene(scene)
         for _ in range(ticks):
             t0 = time.perf_counter()
-            out = planner.step(q, pr.goal, None, dt=0.1, max_iterations=iterations)
+            out = planner.step(q, pr.goal, None, dt=0.1, max_iterations=iterations, budget_s=budget_s)
             tick_ms.append(1000.0 * (time.perf_counter() - t0))
             q = out.command
             path.append(q)
@@ -130,7 +132,10 @@ def main(argv: list[str]) -> int:
     results: dict = {"backend": args.backend, "config": config.to_dict()}
     for key, probs in problems.items():
         results[key] = open_loop(planner, probs, key)
-        results[key].update(closed_loop(planner, probs, key, args.ticks, ClosedLoopConfig().max_iterations_per_tick))
+        loop = ClosedLoopConfig()
+        results[key].update(
+            closed_loop(planner, probs, key, args.ticks, loop.max_iterations_per_tick, loop.tick_budget_ms / 1000.0)
+        )
     all_ticks = results["free"]["tick_ms"] + results["cluttered"]["tick_ms"]
     results["tick_ms_p50"] = float(np.percentile(all_ticks, 50))
     results["tick_ms_p99"] = float(np.percentile(all_ticks, 99))

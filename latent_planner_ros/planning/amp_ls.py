@@ -312,8 +312,10 @@ class AmpLs:
         dt: float = 0.1,
         max_iterations: int = 1,
         resync_rad: float = 0.3,
+        budget_s: float | None = None,
     ) -> StepResult:
-        """One closed-loop tick: at most `max_iterations` optimisation steps, stopping at the first accepted one.
+        """One closed-loop tick: at most `max_iterations` optimisation steps, stopping at the first accepted one,
+        and (budget_s [s]) before a step that would likely end past the budget (the last step's time as estimate).
 
         The returned command lies on the collision-checked segment from q_measured to the accepted state,
         scaled so no joint exceeds speed_scale * its velocity limit over dt [s].
@@ -329,9 +331,14 @@ class AmpLs:
             s = self._search = _Search(self, q_measured, cfg.closed_loop_seeds)
         s.q_prev[:] = q_measured  # the robot is where it is: check from here
         ev: dict = {}
+        t_start = time.perf_counter()
         for _ in range(max_iterations):
+            t_iter = time.perf_counter()
             ev = self._iterate(s, goal, accept=True)
             if ev["accepted"] or ev["reached"]:
+                break
+            now = time.perf_counter()
+            if budget_s is not None and (now - t_start) + (now - t_iter) > budget_s:
                 break
         candidates = ev.get("reached") or ev.get("accepted") or [0]
         b = min(candidates, key=lambda i: float(ev["pos_err"][i]) if "pos_err" in ev else 0.0)  # the closest seed

@@ -34,6 +34,9 @@ class ClosedLoopConfig:
     """a scene older than this [s] makes the arm hold"""
     max_iterations_per_tick: int = 3
     """optimisation steps per tick (the first accepted step ends the tick)"""
+    tick_budget_ms: float = 20.0
+    """no further optimisation step starts in a tick once the time used plus the last step's time would exceed
+    this [ms] (bounds the tick time; at least one step always runs)"""
     no_progress_s: float = 8.0
     """a goal whose error has not improved by progress_m within this time [s] is given up"""
     progress_m: float = 0.005
@@ -44,7 +47,8 @@ class ClosedLoopConfig:
     """goals with an observed point closer than this [m] are refused as inside an obstacle"""
 
     def __post_init__(self) -> None:
-        for name in ("rate_hz", "stale_joint_states_s", "stale_scene_s", "no_progress_s", "progress_m", "reach_m"):
+        positive = ("rate_hz", "stale_joint_states_s", "stale_scene_s", "no_progress_s", "progress_m", "reach_m")
+        for name in (*positive, "tick_budget_ms"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {v!r}")
@@ -195,6 +199,7 @@ class ClosedLoopController:
             self._scene if use_scene else None,
             dt=1.0 / cfg.rate_hz,
             max_iterations=cfg.max_iterations_per_tick,
+            budget_s=cfg.tick_budget_ms / 1000.0,
         )
         tick_ms = (time.perf_counter() - t0) * 1000.0
         values = {

@@ -94,3 +94,21 @@ def test_time_parameterisation():
     q = np.stack([Q_READY, Q_READY + 0.1, Q_READY + 0.1])
     t = time_parameterise(q, speed_scale=0.5)
     assert t[0] == 0 and t[1] == pytest.approx(0.1 / (0.5 * V_MAX.min())) and t[2] > t[1]
+
+
+class AlwaysColliding(NoCollision):
+    """Every decoded state is predicted in collision, so no step is ever accepted."""
+
+    def p_collision(self, q, z):
+        return 0.0 * z.sum(-1) + 0.99
+
+
+def test_a_tick_stops_starting_steps_when_its_time_budget_is_spent(shipped_vae):
+    planner = AmpLs(shipped_vae, AlwaysColliding(), AmpLsConfig(closed_loop_seeds=1))
+    goal = _goal_of(Q_READY + 0.3)
+    out = planner.step(Q_READY, goal, max_iterations=5)
+    assert not out.accepted and planner._search.iteration == 5  # no budget: every allowed step runs
+    planner.reset()
+    out = planner.step(Q_READY, goal, max_iterations=5, budget_s=1e-6)
+    assert not out.accepted and planner._search.iteration == 1  # at least one step, then the budget stops it
+    np.testing.assert_array_equal(out.command, Q_READY)  # nothing accepted: hold

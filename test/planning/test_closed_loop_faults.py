@@ -52,7 +52,7 @@ class _StuckPlanner:
     def reset(self) -> None:
         pass
 
-    def step(self, q, goal, scene, dt, max_iterations):
+    def step(self, q, goal, scene, dt, max_iterations, budget_s=None):
         return StepResult(np.asarray(q), True, False, 0.1, 0.0, 0.0, "tracking", {})
 
 
