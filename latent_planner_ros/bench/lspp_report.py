@@ -82,8 +82,8 @@ def figures(results: dict) -> dict:
     for j, name in enumerate(names):
         s = [results["obstacles"][k][name] for k in counts]
         y = np.array([100 * v["success"] for v in s])
-        lo = y - np.array([100 * v["success_ci95"][0] for v in s])
-        hi = np.array([100 * v["success_ci95"][1] for v in s]) - y
+        lo = np.clip(y - np.array([100 * v["success_ci95"][0] for v in s]), 0.0, None)  # >= 0 despite rounding
+        hi = np.clip(np.array([100 * v["success_ci95"][1] for v in s]) - y, 0.0, None)
         ax.errorbar(x + 0.04 * (j - len(names) / 2), y, yerr=[lo, hi], marker="o", capsize=3, label=name, color=f"C{j}")
         if name in SEED_TABLE_II:
             seed = [SEED_TABLE_II[name][0][int(k) - 1] for k in counts if int(k) <= 5]

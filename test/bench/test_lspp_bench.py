@@ -44,3 +44,17 @@ def test_bench_lspp_writes_the_table_and_reuses_its_scenarios(tmp_path):
 def test_bad_arguments_are_refused(tmp_path, bad, capsys):
     assert bench_lspp(["--out", str(tmp_path), *bad]) == 2
     assert "bench lspp:" in capsys.readouterr().err
+
+
+def test_the_figures_accept_perfect_and_zero_success():
+    from latent_planner_ros.bench.lspp_report import figures
+    from latent_planner_ros.evaluation.stats import wilson_ci95
+
+    results = {
+        "planners": ["a", "b"],
+        "obstacles": {"1": {"a": {"success": 1.0, "success_ci95": list(wilson_ci95(100, 100))},
+                            "b": {"success": 0.0, "success_ci95": list(wilson_ci95(0, 100))}}},
+        "rows": [{"planner": "a", "time_s": 0.1}, {"planner": "b", "time_s": 0.2}],
+    }  # fmt: skip
+    assert wilson_ci95(100, 100)[1] * 100 < 100.0  # the rounding that once made an error bar negative
+    assert set(figures(results)) == {"success", "time"}
