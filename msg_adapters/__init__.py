@@ -9,6 +9,7 @@ from msg_adapters.cylinder_markers import (
     cylinders_to_array,
     cylinders_to_marker_array,
 )
+from msg_adapters.diagnostics import status_array
 from msg_adapters.errors import AdapterError
 from msg_adapters.joint_state import joint_state_to_q, q_to_joint_state
 from msg_adapters.point_cloud import cloud_to_fields, cloud_to_xyz, feature_names, xyz_to_cloud
@@ -34,6 +35,7 @@ __all__ = [
     "path_to_arrays",
     "pose_stamped_to_target",
     "q_to_joint_state",
+    "status_array",
     "target_to_pose_stamped",
     "trajectory_to_arrays",
     "xyz_to_cloud",

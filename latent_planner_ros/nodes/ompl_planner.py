@@ -16,19 +16,17 @@ import math
 import sys
 
 import numpy as np
-import rclpy
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-from rclpy.executors import ExternalShutdownException
-from rclpy.logging import get_logger
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, PointCloud2
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 from latent_planner_ros.nodes.markers import path_markers
+from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.ompl_planner_config import OmplPlannerNodeConfig
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.ompl_baseline import OmplPlanner
@@ -41,6 +39,7 @@ from msg_adapters import (
     joint_state_to_q,
     pose_stamped_to_target,
     q_to_joint_state,
+    status_array,
 )
 from sim_bridge.params import ConfigError, from_params, to_params
 
@@ -193,8 +192,7 @@ class OmplPlannerNode(Node):
 
     def _publish_status(self) -> None:
         level = WARN if self._state == "failed" else OK
-        status = DiagnosticStatus(level=bytes([level]), name="ompl_planner", hardware_id=self.planner.name)
-        status.message = f"{self._state}: {self._last_error}" if self._state == "failed" else self._state
+        message = f"{self._state}: {self._last_error}" if self._state == "failed" else self._state
         values = {
             "state": self._state,
             "executing": self._streamer is not None,
@@ -202,34 +200,13 @@ class OmplPlannerNode(Node):
             "last_error": self._last_error,
             **self._last,
         }
-        status.values = [
-            KeyValue(key=k, value=f"{v:.6g}" if isinstance(v, float) else str(v)) for k, v in values.items()
-        ]
-        msg = DiagnosticArray(status=[status])
-        msg.header.stamp = self.get_clock().now().to_msg()
+        stamp = self.get_clock().now().to_msg()
+        msg = status_array("ompl_planner", level, message, values, self.planner.name, stamp)
         self.pub_status.publish(msg)
 
 
 def main() -> int:
-    rclpy.init(args=sys.argv)
-    node = None
-    try:
-        try:
-            node = OmplPlannerNode()
-        except (ConfigError, ValueError) as err:
-            get_logger("ompl_planner").error(f"cannot start: {err}")
-            return 2
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:
-        if rclpy.ok():  # a real error; after SIGTERM/SIGINT a callback may race the shutdown: ignore that
-            raise
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node("ompl_planner", OmplPlannerNode, (ConfigError, ValueError))
 
 
 if __name__ == "__main__":

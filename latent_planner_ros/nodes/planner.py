@@ -23,15 +23,12 @@ from __future__ import annotations
 import sys
 import time
 
-import rclpy
 import torch
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-from rclpy.executors import ExternalShutdownException
-from rclpy.logging import get_logger
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, PointCloud2
 from std_srvs.srv import SetBool
@@ -41,6 +38,7 @@ from visualization_msgs.msg import MarkerArray
 from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.vae_io import load_vae
 from latent_planner_ros.nodes.markers import path_markers
+from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.planner_config import PlannerNodeConfig
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.backends import make_backend
@@ -59,6 +57,7 @@ from msg_adapters import (
     joint_state_to_q,
     pose_stamped_to_target,
     q_to_joint_state,
+    status_array,
 )
 from sim_bridge.params import ConfigError, from_params, to_params
 
@@ -295,8 +294,6 @@ class PlannerNode(Node):
 
     def _publish_status(self) -> None:
         o = self._last_outcome
-        status = DiagnosticStatus(level=bytes([o.level]), name="planner", message=f"{o.state}: {o.reason}")
-        status.hardware_id = self.modes.active.planner.name
         points_in, points_used = self._cloud_points
         values = {
             "state": o.state,
@@ -307,34 +304,13 @@ class PlannerNode(Node):
             "cloud_points_used": points_used,
             **o.values,
         }
-        status.values = [
-            KeyValue(key=k, value=f"{v:.6g}" if isinstance(v, float) else str(v)) for k, v in values.items()
-        ]
-        msg = DiagnosticArray(status=[status])
-        msg.header.stamp = self.get_clock().now().to_msg()
+        stamp = self.get_clock().now().to_msg()
+        msg = status_array("planner", o.level, f"{o.state}: {o.reason}", values, self.modes.active.planner.name, stamp)
         self.pub_status.publish(msg)
 
 
 def main() -> int:
-    rclpy.init(args=sys.argv)
-    node = None
-    try:
-        try:
-            node = PlannerNode()
-        except (CheckpointError, ConfigError, ValueError) as err:
-            get_logger("planner").error(f"cannot start: {err}")
-            return 2
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:
-        if rclpy.ok():  # a real error; after SIGTERM/SIGINT a callback may race the shutdown: ignore that
-            raise
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node("planner", PlannerNode, (CheckpointError, ConfigError, ValueError))
 
 
 if __name__ == "__main__":

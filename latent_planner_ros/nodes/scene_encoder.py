@@ -15,21 +15,19 @@ from __future__ import annotations
 import sys
 import time
 
-import rclpy
 import torch
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-from rclpy.executors import ExternalShutdownException
-from rclpy.logging import get_logger
 from rclpy.node import Node
 from sensor_msgs.msg import PointCloud2
 
 from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.collision_io import load_scene_encoder
 from latent_planner_ros.models.scene_encoder import SceneEncoder
+from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.scene_encoder_config import SceneEncoderNodeConfig
 from latent_planner_ros.perception.scene_input import SceneInputMonitor, prepare_cloud
-from msg_adapters import AdapterError, cloud_to_xyz, embedding_to_cloud
+from msg_adapters import AdapterError, cloud_to_xyz, embedding_to_cloud, status_array
 from sim_bridge.params import ConfigError, from_params, to_params
 
 FRAME = "world"
@@ -114,37 +112,14 @@ class SceneEncoderNode(Node):
 
     def _publish_status(self) -> None:
         report = self.monitor.report(self._now())
-        status = DiagnosticStatus(level=bytes([report.level]), name="scene_encoder", message=report.message)
-        status.hardware_id = "scene_encoder"
-        status.values = [
-            KeyValue(key=k, value=f"{v:.6g}" if isinstance(v, float) else str(v)) for k, v in report.values.items()
-        ]
-        msg = DiagnosticArray(status=[status])
-        msg.header.stamp = self.get_clock().now().to_msg()
+        stamp = self.get_clock().now().to_msg()
+        msg = status_array("scene_encoder", report.level, report.message, report.values, "scene_encoder", stamp)
         self.pub_status.publish(msg)
 
 
 def main() -> int:
     torch.set_num_threads(1)
-    rclpy.init(args=sys.argv)
-    node = None
-    try:
-        try:
-            node = SceneEncoderNode()
-        except (CheckpointError, ConfigError) as err:
-            get_logger("scene_encoder").error(f"cannot start: {err}")
-            return 2
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:
-        if rclpy.ok():  # a real error; after SIGTERM/SIGINT a publish may race the shutdown: ignore that
-            raise
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node("scene_encoder", SceneEncoderNode, (CheckpointError, ConfigError))
 
 
 if __name__ == "__main__":

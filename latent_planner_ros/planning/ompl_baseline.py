@@ -22,7 +22,6 @@ import math
 import time
 
 import numpy as np
-import pinocchio as pin
 from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
@@ -31,11 +30,9 @@ from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.ik import goal_configurations
 from latent_planner_ros.planning.octree_checker import OccupancyMap, OctreeChecker
 from latent_planner_ros.planning.ompl_baseline_config import PLANNERS, OmplConfig
-from latent_planner_ros.planning.result import PlanResult
-from latent_planner_ros.planning.time_parameterisation import time_parameterise
+from latent_planner_ros.planning.result import PlanResult, result_from_path
 from latent_planner_ros.robot.limits import Q_MAX, Q_MIN
 from latent_planner_ros.robot.panda import PandaModel, load_panda
-from latent_planner_ros.robot.rotations import matrix_to_quat
 
 START_LIMIT_SLACK = 1e-3
 """A start this little outside the joint limits [rad] (measurement noise) is clamped into them."""
@@ -206,24 +203,15 @@ class OmplPlanner:
     def _result(
         self, q_path: np.ndarray, goal: Goal, solved: bool, reason: str, t0: float, timings: dict, info: dict
     ) -> PlanResult:
-        pos, rot = self.panda.fk_batch(q_path)
-        pos_err = float(np.linalg.norm(pos[-1] - goal.position))
-        ori_err = float(np.linalg.norm(pin.log3(rot[-1].T @ goal.rotation)))
-        success = solved and pos_err <= goal.pos_tol and ori_err <= goal.ori_tol
-        if solved and not success:
-            reason = f"path ends {pos_err * 1000:.1f} mm, {math.degrees(ori_err):.1f} deg from the goal"
-        elapsed = time.perf_counter() - t0
-        return PlanResult(
-            success=success,
-            q_path=q_path,
-            times=time_parameterise(q_path, self.config.speed_scale),
-            ee_positions=pos,
-            ee_quaternions=matrix_to_quat(rot),
-            planning_time_s=elapsed,
+        return result_from_path(
+            self.panda,
+            q_path,
+            goal,
+            solved=solved,
             reason=reason,
-            final_pos_err_m=pos_err,
-            final_ori_err_rad=ori_err,
+            t0=t0,
+            speed_scale=self.config.speed_scale,
             iterations=self.checker.checks,
-            timings={**timings, "total_s": elapsed},
+            timings=timings,
             info=info,
         )

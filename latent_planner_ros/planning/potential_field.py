@@ -30,12 +30,10 @@ from latent_planner_ros.data.cylinders import cylinder_scene, validate_cylinders
 from latent_planner_ros.planning.cylinder_distance import cylinder_distance
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.potential_field_config import PotentialFieldConfig
-from latent_planner_ros.planning.result import PlanResult
+from latent_planner_ros.planning.result import PlanResult, result_from_path
 from latent_planner_ros.planning.scene_checker import SceneChecker
-from latent_planner_ros.planning.time_parameterisation import time_parameterise
 from latent_planner_ros.robot.limits import Q_MAX, Q_MIN, V_MAX
 from latent_planner_ros.robot.panda import EE_FRAME, LINK_FRAMES, PandaModel, load_panda
-from latent_planner_ros.robot.rotations import matrix_to_quat
 from latent_planner_ros.robot.spheres import panda_spheres
 
 REACH_FRACTION = 0.5
@@ -227,24 +225,14 @@ class PotentialFieldPlanner:
         return self._result(np.stack(path), goal, reason, t0, steps, info)
 
     def _result(self, q_path: np.ndarray, goal: Goal, reason: str, t0: float, steps: int, info: dict) -> PlanResult:
-        pos, rot = self.panda.fk_batch(q_path)
-        pos_err = float(np.linalg.norm(pos[-1] - goal.position))
-        ori_err = float(np.linalg.norm(pin.log3(rot[-1].T @ goal.rotation)))
-        success = reason == "reached" and pos_err <= goal.pos_tol and ori_err <= goal.ori_tol
-        if reason == "reached" and not success:
-            reason = f"position reached but the orientation is {np.degrees(ori_err):.1f} deg off"
-        elapsed = time.perf_counter() - t0
-        return PlanResult(
-            success=success,
-            q_path=q_path,
-            times=time_parameterise(q_path, self.config.speed_scale),
-            ee_positions=pos,
-            ee_quaternions=matrix_to_quat(rot),
-            planning_time_s=elapsed,
+        return result_from_path(
+            self.panda,
+            q_path,
+            goal,
+            solved=reason == "reached",
             reason=reason,
-            final_pos_err_m=pos_err,
-            final_ori_err_rad=ori_err,
+            t0=t0,
+            speed_scale=self.config.speed_scale,
             iterations=steps,
-            timings={"total_s": elapsed},
             info=info,
         )

@@ -1,0 +1,39 @@
+"""The shared main() of the long-running nodes: start, spin, and shut down cleanly on Ctrl-C or SIGTERM."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.logging import get_logger
+from rclpy.node import Node
+
+
+def run_node(name: str, factory: Callable[[], Node], startup_errors: tuple[type[BaseException], ...]) -> int:
+    """Create the node with `factory` and spin it until shutdown; the process exit code.
+
+    An error in `startup_errors` while creating the node (a bad parameter, a missing checkpoint) is logged as
+    "cannot start: ..." and gives exit code 2; Ctrl-C or an external shutdown gives 0. Any other error is
+    raised, except one racing the shutdown (a callback publishing after SIGTERM).
+    """
+    rclpy.init(args=sys.argv)
+    node = None
+    try:
+        try:
+            node = factory()
+        except startup_errors as err:
+            get_logger(name).error(f"cannot start: {err}")
+            return 2
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception:
+        if rclpy.ok():  # a real error; after SIGTERM/SIGINT a callback may race the shutdown: ignore that
+            raise
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
