@@ -149,7 +149,12 @@ class AmpLs:
                 if hits.any():
                     i = int(np.argmax(hits)) + 1
                     s.target.scale(np.where(np.arange(len(q_np)) == b, i / len(seg), 1.0))
+                    keep = int(cfg.backtrace_keep * (i - 1))  # free states of the step kept on the path
                     with torch.no_grad():
+                        if keep > 0:
+                            s.paths[b].append(seg[:keep])
+                            s.q_prev[b] = seg[keep - 1]
+                            s.z_prev[b] += (keep / len(seg)) * (s.z[b] - s.z_prev[b])
                         s.z[b] = s.z_prev[b]
                     s.backtraces += 1
                     events["backtraced"].append(b)
@@ -340,6 +345,8 @@ class AmpLs:
             now = time.perf_counter()
             if budget_s is not None and (now - t_start) + (now - t_iter) > budget_s:
                 break
+        for i in range(len(s.paths)):  # the closed loop needs no history: keep memory bounded over long runs
+            s.paths[i] = s.paths[i][-1:]
         candidates = ev.get("reached") or ev.get("accepted") or [0]
         b = min(candidates, key=lambda i: float(ev["pos_err"][i]) if "pos_err" in ev else 0.0)  # the closest seed
         accepted = bool(ev["accepted"])

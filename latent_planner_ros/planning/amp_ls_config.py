@@ -33,6 +33,9 @@ class AmpLsConfig:
     obstacle classifier on state-based cylinders) or "none\""""
     col_threshold: float = 0.2
     """gamma_col: a decoded state with p(collision) above this is not accepted"""
+    backtrace_keep: float = 0.0
+    """fraction of the collision-free part of a colliding step kept on the path when back-tracing, z moving
+    along with it (beyond the seed); 0 = the seed: back to the last accepted state"""
     interp_steps: int = 15
     """m: states checked on the linear interpolation of each accepted step"""
     check_step_rad: float = 0.02
@@ -88,6 +91,8 @@ class AmpLsConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 problems.append(f"{name} must be a positive finite number, got {v!r}")
+        if not (isinstance(self.backtrace_keep, int | float) and 0.0 <= self.backtrace_keep < 1.0):
+            problems.append(f"backtrace_keep must be in [0, 1), got {self.backtrace_keep!r}")
         if not (isinstance(self.restarts, int) and self.restarts >= 0):
             problems.append(f"restarts must be an integer >= 0, got {self.restarts!r}")
         for name in ("max_steps", "interp_steps", "n_seeds", "closed_loop_seeds", "patience"):

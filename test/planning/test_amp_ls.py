@@ -43,7 +43,10 @@ class CostBlindBackend(GeometricBackend):
         return super().p_collision(q, z) * 0.0
 
 
-def test_a_wall_of_points_triggers_back_tracing_and_is_never_crossed(shipped_vae):
+@pytest.mark.parametrize("keep", [0.0, 0.5])
+def test_a_wall_of_points_triggers_back_tracing_and_is_never_crossed(shipped_vae, keep):
+    """Back-tracing (to the last accepted state, or keeping half of a colliding step's free part) never lets a
+    state of the returned path touch the wall, and the path stays connected."""
     start = Q_READY.copy()
     goal_q = Q_READY + np.array([1.2, 0.3, 0.0, 0.3, 0.0, -0.2, 0.0])
     goal = _goal_of(goal_q)
@@ -56,11 +59,12 @@ def test_a_wall_of_points_triggers_back_tracing_and_is_never_crossed(shipped_vae
     s, h = np.meshgrid(np.linspace(-0.12, 0.12, 25), np.linspace(-0.15, 0.15, 31))
     wall = mid + s.reshape(-1, 1) * u + h.reshape(-1, 1) * np.array([0, 0, 1.0])
     backend = CostBlindBackend()
-    planner = AmpLs(shipped_vae, backend, AmpLsConfig(collision_backend="geometric", max_steps=200))
-    result = planner.plan(start, goal, wall)
+    cfg = AmpLsConfig(collision_backend="geometric", max_steps=200, backtrace_keep=keep)
+    result = AmpLs(shipped_vae, backend, cfg).plan(start, goal, wall)
     assert result.info["backtraces"] > 0
     backend.set_scene(wall)
     assert not backend.check(result.q_path).any()  # no state of the returned path touches the wall
+    assert np.all(np.abs(np.diff(result.q_path, axis=0)) <= cfg.check_step_rad + 1e-9)
     _check_path(result)
 
 
@@ -112,3 +116,21 @@ def test_a_tick_stops_starting_steps_when_its_time_budget_is_spent(shipped_vae):
     out = planner.step(Q_READY, goal, max_iterations=5, budget_s=1e-6)
     assert not out.accepted and planner._search.iteration == 1  # at least one step, then the budget stops it
     np.testing.assert_array_equal(out.command, Q_READY)  # nothing accepted: hold
+
+
+def test_restarts_keep_the_path_continuous(shipped_vae):
+    """Stalled seeds restart from the best seed's last accepted state: the returned path must still be one
+    connected joint path from the start, with no jump where a seed took over another seed's path."""
+    far = Goal(np.array([1.4, 0.0, 0.5]), np.eye(3))  # out of reach: every seed stalls
+    cfg = AmpLsConfig(use_collision=False, n_seeds=4, patience=5, restarts=6, max_steps=150)
+    result = AmpLs(shipped_vae, NoCollision(), cfg, seed=3).plan(Q_READY, far)
+    assert not result.success and result.info["restarts"] == 6
+    np.testing.assert_array_equal(result.q_path[0], Q_READY)
+    jumps = np.abs(np.diff(result.q_path, axis=0)).max(axis=1)
+    assert jumps.max() <= cfg.check_step_rad + 1e-9
+    _check_path(result)
+
+
+def test_backtrace_keep_must_be_a_fraction():
+    with pytest.raises(ValueError, match="backtrace_keep"):
+        AmpLsConfig(backtrace_keep=1.0)
