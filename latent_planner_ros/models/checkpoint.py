@@ -7,6 +7,7 @@ CheckpointError naming the file and the problem (missing, truncated/corrupt, mis
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import torch
@@ -67,3 +68,23 @@ def load_state_into(module: torch.nn.Module, tensors: dict[str, torch.Tensor], s
         )
         raise CheckpointError(f"checkpoint {source} does not match the model ({detail})")
     module.load_state_dict(tensors, strict=True)
+
+
+def load_model(
+    stem: str | Path, kind: str, what: str, build: Callable[[dict], torch.nn.Module]
+) -> tuple[torch.nn.Module, dict]:
+    """Load checkpoint `stem` of metadata kind `kind` into `build(architecture)`, in eval mode; (model, metadata).
+
+    what: the model's description in errors ("a robot-state VAE"). Raises CheckpointError naming the file and the
+    problem: missing or unreadable files, another kind, a bad architecture entry, tensors that do not fit.
+    """
+    tensors, meta = load_checkpoint(stem)
+    if meta.get("kind") != kind:
+        raise CheckpointError(f"checkpoint {stem} is not {what} (kind={meta.get('kind')!r})")
+    try:
+        model = build(meta["architecture"])
+    except (KeyError, TypeError, ValueError) as e:
+        raise CheckpointError(f"checkpoint {stem} has a bad 'architecture' entry: {e}") from e
+    load_state_into(model, tensors, stem)
+    model.eval()
+    return model, meta

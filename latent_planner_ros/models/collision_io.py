@@ -5,7 +5,7 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
-from latent_planner_ros.models.checkpoint import CheckpointError, load_checkpoint, load_state_into, save_checkpoint
+from latent_planner_ros.models.checkpoint import CheckpointError, load_model, save_checkpoint
 from latent_planner_ros.models.collision_net import CollisionNet
 from latent_planner_ros.models.collision_net_config import CollisionNetConfig
 from latent_planner_ros.models.scene_encoder import SceneEncoder
@@ -47,20 +47,13 @@ def save_collision_net(stem: str | Path, net: CollisionNet, metadata: dict) -> P
 def load_collision_net(stem: str | Path | None = None) -> tuple[CollisionNet, dict]:
     """Load a collision network (default: the shipped one) in eval mode; raises CheckpointError on any problem."""
     stem = shipped_collision_path() if stem is None else Path(stem)
-    tensors, meta = load_checkpoint(stem)
-    if meta.get("kind") != KIND:
-        raise CheckpointError(f"checkpoint {stem} is not a collision network (kind={meta.get('kind')!r})")
-    try:
-        config = CollisionNetConfig.from_dict(meta["architecture"])
-    except (KeyError, TypeError, ValueError) as e:
-        raise CheckpointError(f"checkpoint {stem} has a bad 'architecture' entry: {e}") from e
-    net = CollisionNet(config)
+    net, meta = load_model(
+        stem, KIND, "a collision network", lambda arch: CollisionNet(CollisionNetConfig.from_dict(arch))
+    )
     if meta.get("links", list(net.fk.frames)) != list(net.fk.frames):
         raise CheckpointError(
             f"checkpoint {stem} was trained for links {meta['links']}, expected {list(net.fk.frames)}"
         )
-    load_state_into(net, tensors, stem)
-    net.eval()
     return net, meta
 
 

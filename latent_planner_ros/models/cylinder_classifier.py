@@ -14,7 +14,7 @@ from pathlib import Path
 import torch
 from torch import nn
 
-from latent_planner_ros.models.checkpoint import CheckpointError, load_checkpoint, load_state_into, save_checkpoint
+from latent_planner_ros.models.checkpoint import load_model, save_checkpoint
 from latent_planner_ros.models.mlp import mlp
 
 CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
@@ -79,14 +79,6 @@ def save_classifier(stem: str | Path, model: CylinderClassifier, metadata: dict)
 def load_classifier(stem: str | Path | None = None) -> tuple[CylinderClassifier, dict]:
     """Load a classifier (default: the shipped one) in eval mode; raises CheckpointError on any problem."""
     stem = shipped_classifier_path() if stem is None else Path(stem)
-    tensors, meta = load_checkpoint(stem)
-    if meta.get("kind") != KIND:
-        raise CheckpointError(f"checkpoint {stem} is not an LSPP cylinder classifier (kind={meta.get('kind')!r})")
-    try:
-        config = CylinderClassifierConfig(**meta["architecture"])
-    except (KeyError, TypeError, ValueError) as e:
-        raise CheckpointError(f"checkpoint {stem} has a bad 'architecture' entry: {e}") from e
-    model = CylinderClassifier(config)
-    load_state_into(model, tensors, stem)
-    model.eval()
-    return model, meta
+    return load_model(
+        stem, KIND, "an LSPP cylinder classifier", lambda a: CylinderClassifier(CylinderClassifierConfig(**a))
+    )

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from latent_planner_ros.models.checkpoint import CheckpointError, load_checkpoint, load_state_into, save_checkpoint
+from latent_planner_ros.models.checkpoint import load_model, save_checkpoint
 from latent_planner_ros.models.vae import RobotStateVAE
 from latent_planner_ros.models.vae_config import VaeConfig
 
@@ -30,14 +30,4 @@ def save_vae(stem: str | Path, model: RobotStateVAE, metadata: dict) -> Path:
 def load_vae(stem: str | Path | None = None) -> tuple[RobotStateVAE, dict]:
     """Load a VAE (default: the shipped one) in eval mode; raises CheckpointError naming file and problem."""
     stem = shipped_vae_path() if stem is None else Path(stem)
-    tensors, meta = load_checkpoint(stem)
-    if meta.get("kind") != "robot_state_vae":
-        raise CheckpointError(f"checkpoint {stem} is not a robot-state VAE (kind={meta.get('kind')!r})")
-    try:
-        config = VaeConfig(**meta["architecture"])
-    except (KeyError, TypeError, ValueError) as e:
-        raise CheckpointError(f"checkpoint {stem} has a bad 'architecture' entry: {e}") from e
-    model = RobotStateVAE(config)
-    load_state_into(model, tensors, stem)
-    model.eval()
-    return model, meta
+    return load_model(stem, "robot_state_vae", "a robot-state VAE", lambda arch: RobotStateVAE(VaeConfig(**arch)))
