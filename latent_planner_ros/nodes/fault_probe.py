@@ -23,22 +23,19 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import Log
 from rcl_interfaces.srv import SetParameters
-from rclpy.context import Context
-from rclpy.executors import ExternalShutdownException, ShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rclpy.serialization import serialize_message
-from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState, PointCloud2
 from std_srvs.srv import SetBool, Trigger
 
 from latent_planner_ros.evaluation.safety import SafetyConfig, SafetyMonitor, Violation, command_positions
+from latent_planner_ros.nodes.probe_session import ProbeSession
 from latent_planner_ros.robot.limits import Q_READY
 from msg_adapters import AdapterError, joint_state_to_q, q_to_joint_state
 from sim_bridge.command import JointCommand
@@ -186,7 +183,7 @@ class FaultProbe(Node):
         return 1.0 / rate
 
 
-class FaultSession:
+class FaultSession(ProbeSession):
     """A :class:`FaultProbe` in its own context: an executor thread, and (fake arm) arm and camera threads.
 
     Args:
@@ -195,30 +192,12 @@ class FaultSession:
     """
 
     def __init__(self, domain_id: int | None = None, fake_arm: bool = True, safety: SafetyConfig | None = None):
-        self.context = Context()
-        rclpy.init(context=self.context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = FaultProbe(fake_arm=fake_arm, safety=safety, context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self._stop = threading.Event()
-        self._threads = [threading.Thread(target=self._spin, name="fault_probe", daemon=True)]
-        if fake_arm:
-            self._threads += [
-                threading.Thread(target=self._arm_loop, name="fault_probe_arm", daemon=True),
-                threading.Thread(target=self._camera_loop, name="fault_probe_camera", daemon=True),
-            ]
-        for thread in self._threads:
-            thread.start()
+        loops = (("fault_probe_arm", self._arm_loop), ("fault_probe_camera", self._camera_loop)) if fake_arm else ()
 
-    def _spin(self) -> None:
-        try:
-            while not self._stop.is_set() and self.context.ok():
-                self.executor.spin_once(timeout_sec=0.1)
-        except (ExternalShutdownException, ShutdownException):
-            pass
-        except Exception:
-            if self.context.ok():
-                raise
+        def make(context):
+            return FaultProbe(fake_arm=fake_arm, safety=safety, context=context)
+
+        super().__init__(make, "fault_probe", domain_id, loops)
 
     def _loop(self, step: Callable[[], float]) -> None:
         next_t = time.monotonic()
@@ -277,15 +256,7 @@ class FaultSession:
 
     # -- services ----------------------------------------------------------------------------------
     def call(self, client, request, timeout_s: float = 20.0):
-        """Call a service and wait; TimeoutError if it is absent or silent."""
-        if not client.wait_for_service(timeout_sec=timeout_s):
-            raise TimeoutError(f"service {client.srv_name} is not available")
-        done = threading.Event()
-        future = client.call_async(request)
-        future.add_done_callback(lambda _: done.set())
-        if not done.wait(timeout_s) or future.result() is None:
-            raise TimeoutError(f"no answer from {client.srv_name} within {timeout_s:g} s")
-        return future.result()
+        return super().call(client, request, timeout_s)
 
     def set_parameter(self, node: str, name: str, value, timeout_s: float = 30.0) -> tuple[bool, str]:
         """Set one parameter of `node`; returns (successful, reason)."""
@@ -349,17 +320,3 @@ class FaultSession:
             n.logs = [r for r in n.logs if r[0] >= cut]
             n.clouds_published = [c for c in n.clouds_published if c >= cut]
             n.statuses = {k: [s for s in v if s.t >= cut] for k, v in n.statuses.items()}
-
-    def close(self) -> None:
-        self._stop.set()
-        for thread in self._threads:
-            thread.join(timeout=2.0)
-        self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-
-    def __enter__(self) -> FaultSession:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()

@@ -20,18 +20,15 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.srv import GetPlan
-from rclpy.context import Context
-from rclpy.executors import ExternalShutdownException, ShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 from trajectory_msgs.msg import JointTrajectory
 
 from latent_planner_ros.evaluation.reach import ExecutionLog, PlanCall
+from latent_planner_ros.nodes.probe_session import ProbeSession
 from latent_planner_ros.planning.trajectory_stream import TrajectoryStreamer
 from msg_adapters import (
     AdapterError,
@@ -131,7 +128,7 @@ class ReachProbe(Node):
         return rows or {"joints": [], "distance": [], "contact": []}
 
 
-class ReachSession:
+class ReachSession(ProbeSession):
     """A :class:`ReachProbe` spun on a background thread in its own context.
 
     Args:
@@ -140,21 +137,7 @@ class ReachSession:
     """
 
     def __init__(self, domain_id: int | None = None, planners: Sequence[str] = ("planner", "ompl_planner")):
-        self.context = Context()
-        rclpy.init(context=self.context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = ReachProbe(planners, context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._spin, name="reach_probe", daemon=True)
-        self._thread.start()
-
-    def _spin(self) -> None:
-        try:
-            while not self._stop.is_set() and self.context.ok():
-                self.executor.spin_once(timeout_sec=0.1)
-        except (ExternalShutdownException, ShutdownException):
-            pass
+        super().__init__(lambda context: ReachProbe(planners, context=context), "reach_probe", domain_id)
 
     def plan(
         self, planner: str, position: np.ndarray, quaternion_xyzw: np.ndarray, tolerance: float, timeout_s: float = 90.0
@@ -209,16 +192,3 @@ class ReachSession:
             time.sleep(0.05)
         rows = self.node.stop_execution()
         return ExecutionLog.from_rows(rows), streamer.done
-
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join(timeout=2.0)
-        self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-
-    def __enter__(self) -> ReachSession:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()

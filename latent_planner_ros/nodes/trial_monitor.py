@@ -21,21 +21,18 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.srv import SetParameters
-from rclpy.context import Context
-from rclpy.executors import ExternalShutdownException, ShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 from std_srvs.srv import SetBool, Trigger
 
 from latent_planner_ros.evaluation.trial import TrialLog
+from latent_planner_ros.nodes.probe_session import ProbeSession
 from msg_adapters import AdapterError, joint_state_to_q, pose_stamped_to_target
 
 JOINT_PERIOD_S = 0.01
@@ -221,7 +218,7 @@ class TrialMonitor(Node):
             self._await_scenario_start = True
 
 
-class MonitorSession:
+class MonitorSession(ProbeSession):
     """A :class:`TrialMonitor` in its own context, spun on a background thread; service calls block.
 
     Args:
@@ -229,36 +226,7 @@ class MonitorSession:
     """
 
     def __init__(self, domain_id: int | None = None):
-        self.context = Context()
-        rclpy.init(context=self.context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = TrialMonitor(context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._spin, name="trial_monitor", daemon=True)
-        self._thread.start()
-
-    def _spin(self) -> None:
-        try:
-            while not self._stop.is_set() and self.context.ok():
-                self.executor.spin_once(timeout_sec=0.1)
-        except (ExternalShutdownException, ShutdownException):
-            pass
-        except Exception:
-            if self.context.ok():
-                raise
-
-    # -- service calls -------------------------------------------------------------------------------
-    def call(self, client, request, timeout_s: float = 30.0):
-        """Call a service and wait for the answer; TimeoutError if it is not there or does not answer."""
-        if not client.wait_for_service(timeout_sec=timeout_s):
-            raise TimeoutError(f"service {client.srv_name} is not available")
-        done = threading.Event()
-        future = client.call_async(request)
-        future.add_done_callback(lambda _: done.set())
-        if not done.wait(timeout_s) or future.result() is None:
-            raise TimeoutError(f"no answer from {client.srv_name} within {timeout_s:g} s")
-        return future.result()
+        super().__init__(lambda context: TrialMonitor(context=context), "trial_monitor", domain_id)
 
     def set_sim_parameters(self, **values) -> None:
         """Set sim parameters (e.g. seed=3, scenario_overrides="{speed: 0.1}"); RuntimeError if refused."""
@@ -304,16 +272,3 @@ class MonitorSession:
 
     def snapshot(self) -> Live:
         return self.node.snapshot()
-
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join(timeout=2.0)
-        self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-
-    def __enter__(self) -> MonitorSession:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
