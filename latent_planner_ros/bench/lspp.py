@@ -42,11 +42,11 @@ SCENARIO_SEED = 2022
 class LsppRunner:
     """Builds every planner once per process and runs them on one scenario at a time."""
 
-    def __init__(self, names: list[str], threads: int = 1, classifier: str = ""):
+    def __init__(self, names: list[str], threads: int = 1, classifier: str = "", lspp_overrides: dict | None = None):
         import torch
 
         torch.set_num_threads(threads)
-        self.planners = build_planners(names, classifier or None)
+        self.planners = build_planners(names, classifier or None, lspp_overrides)
 
     def run(self, k: int, index: int, sc: LsppScenario) -> list[dict]:
         from latent_planner_ros.data.cylinders import cylinder_scene
@@ -80,10 +80,10 @@ class LsppRunner:
 _RUNNER: LsppRunner | None = None
 
 
-def _init_worker(names: list[str], threads: int, classifier: str) -> None:
+def _init_worker(names: list[str], threads: int, classifier: str, lspp_overrides: dict) -> None:
     global _RUNNER
     os.environ.setdefault("OMP_NUM_THREADS", str(threads))
-    _RUNNER = LsppRunner(names, threads, classifier)
+    _RUNNER = LsppRunner(names, threads, classifier, lspp_overrides)
 
 
 def _run_in_worker(k: int, index: int, sc: LsppScenario) -> list[dict]:
@@ -92,14 +92,21 @@ def _run_in_worker(k: int, index: int, sc: LsppScenario) -> list[dict]:
 
 
 def run_lspp(
-    scenarios: dict[int, list[LsppScenario]], names: list[str], workers: int = 2, classifier: str = ""
+    scenarios: dict[int, list[LsppScenario]],
+    names: list[str],
+    workers: int = 2,
+    classifier: str = "",
+    lspp_overrides: dict | None = None,
 ) -> list[dict]:
-    """Rows of every planner on every scenario, sorted by obstacle count, scenario and planner order."""
+    """Rows of every planner on every scenario, sorted by obstacle count, scenario and planner order.
+
+    lspp_overrides: AmpLsConfig fields changed in the `lspp` row (e.g. {"n_seeds": 8, "restarts": 48})."""
+    lspp_overrides = lspp_overrides or {}
     tasks = [(k, i, sc) for k, scs in sorted(scenarios.items()) for i, sc in enumerate(scs)]
     rows: list[dict] = []
     bar = tqdm(total=len(tasks), desc="bench lspp", unit="scenario", dynamic_ncols=True)
     if workers <= 1:
-        runner = LsppRunner(names, 1, classifier)
+        runner = LsppRunner(names, 1, classifier, lspp_overrides)
         for t in tasks:
             rows += runner.run(*t)
             bar.update()
@@ -107,7 +114,7 @@ def run_lspp(
         import multiprocessing as mp
 
         with ProcessPoolExecutor(workers, mp.get_context("spawn"), initializer=_init_worker,
-                                 initargs=(names, 1, classifier)) as ex:  # fmt: skip
+                                 initargs=(names, 1, classifier, lspp_overrides)) as ex:  # fmt: skip
             for f in as_completed([ex.submit(_run_in_worker, *t) for t in tasks]):
                 rows += f.result()
                 bar.update()
@@ -133,6 +140,29 @@ def _scenarios(args, counts: list[int]) -> dict[int, list[LsppScenario]]:
     return scenarios
 
 
+def parse_overrides(items: list[str]) -> dict:
+    """["n_seeds=8", "backtrace_keep=0.5", "self_check=false"] -> checked AmpLsConfig overrides of the lspp row;
+    ValueError naming the bad item (not FIELD=VALUE, an unknown field, or a value the config refuses)."""
+    import dataclasses
+    import json
+
+    from latent_planner_ros.planning.lspp import lspp_config
+
+    fields = {f.name for f in dataclasses.fields(lspp_config())}
+    out = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        if not sep or name.strip() not in fields:
+            raise ValueError(f"--lspp-set {item!r}: expected FIELD=VALUE with FIELD an AmpLsConfig field")
+        try:
+            value = json.loads(text)
+        except json.JSONDecodeError:
+            value = text
+        out[name.strip()] = value
+    lspp_config(**out)  # raises ValueError naming what the config refuses
+    return out
+
+
 def main(argv: list[str]) -> int:
     p = bench_parser("lspp", __doc__)
     p.add_argument("--scenes", type=int, default=1000, help="scenarios per obstacle count (default 1000)")
@@ -142,8 +172,16 @@ def main(argv: list[str]) -> int:
     p.add_argument("--scenarios", type=Path, default=None, help="scenario file (as written to OUT/lspp_scenarios.json)")
     p.add_argument("--seed", type=int, default=SCENARIO_SEED, help="seed of generated scenarios")
     p.add_argument("--classifier", default="", help="LSPP classifier checkpoint stem (default: the shipped one)")
+    p.add_argument(
+        "--lspp-set",
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="change one planner option of the lspp row (repeatable), e.g. --lspp-set n_seeds=8 --lspp-set restarts=48",
+    )
     args = p.parse_args(argv)
     try:
+        overrides = parse_overrides(args.lspp_set)
         counts = sorted({int(c) for c in args.obstacles.split(",") if c.strip()})
         if not counts or min(counts) < 1:
             raise ValueError("obstacle counts must be integers >= 1")
@@ -158,13 +196,14 @@ def main(argv: list[str]) -> int:
         return 2
     args.out.mkdir(parents=True, exist_ok=True)
     scenarios = _scenarios(args, counts)
-    rows = run_lspp(scenarios, names, args.workers, args.classifier)
+    rows = run_lspp(scenarios, names, args.workers, args.classifier, overrides)
     results = {
         "obstacles": {str(k): summarise([r for r in rows if r["obstacles"] == k], names) for k in sorted(scenarios)},
         "scenes_per_count": {str(k): len(v) for k, v in scenarios.items()},
         "planners": names,
         "tolerance": {"position_m": 0.01, "orientation": "any"},
         "scenario_seed": args.seed,
+        "lspp_overrides": overrides,
         "workers": args.workers,
         "rows": rows,
     }

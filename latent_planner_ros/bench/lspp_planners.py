@@ -31,8 +31,9 @@ SEED_TABLE_II = {
 """The seed's Table II for 1-5 obstacles: success [%], planning time [ms], normalised path length."""
 
 
-def build_planners(names: list[str], classifier: str | None = None) -> dict:
-    """name -> planner, each built once (the VAE is shared by the LSPP rows)."""
+def build_planners(names: list[str], classifier: str | None = None, lspp_overrides: dict | None = None) -> dict:
+    """name -> planner, each built once (the VAE is shared by the LSPP rows); lspp_overrides change the `lspp`
+    row's configuration."""
     from latent_planner_ros.models.vae_io import load_vae
     from latent_planner_ros.planning.lspp import make_variant
     from latent_planner_ros.planning.ompl_baseline import seed_ompl
@@ -42,7 +43,8 @@ def build_planners(names: list[str], classifier: str | None = None) -> dict:
     planners: dict = {}
     for name in names:
         if name in VARIANTS:
-            planner = make_variant(name, vae, classifier)
+            overrides = (lspp_overrides or {}) if name == "lspp" else {}
+            planner = make_variant(name, vae, classifier, **overrides)
             planner.warm_up()
         elif name == "potential_field":
             from latent_planner_ros.planning.potential_field import PotentialFieldPlanner

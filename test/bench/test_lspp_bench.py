@@ -39,7 +39,16 @@ def test_bench_lspp_writes_the_table_and_reuses_its_scenarios(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "bad", [["--planners", "lspp,teleport"], ["--obstacles", "0"], ["--scenes", "0"], ["--obstacles", "x"]]
+    "bad",
+    [
+        ["--planners", "lspp,teleport"],
+        ["--obstacles", "0"],
+        ["--scenes", "0"],
+        ["--obstacles", "x"],
+        ["--lspp-set", "n_seeds"],
+        ["--lspp-set", "teleport=1"],
+        ["--lspp-set", "n_seeds=0"],
+    ],
 )
 def test_bad_arguments_are_refused(tmp_path, bad, capsys):
     assert bench_lspp(["--out", str(tmp_path), *bad]) == 2
@@ -58,3 +67,15 @@ def test_the_figures_accept_perfect_and_zero_success():
     }  # fmt: skip
     assert wilson_ci95(100, 100)[1] * 100 < 100.0  # the rounding that once made an error bar negative
     assert set(figures(results)) == {"success", "time"}
+
+
+def test_lspp_set_changes_only_the_lspp_row():
+    from latent_planner_ros.bench.lspp import parse_overrides
+    from latent_planner_ros.bench.lspp_planners import build_planners
+
+    overrides = parse_overrides(["n_seeds=2", "restarts=4", "backtrace_keep=0"])
+    assert overrides == {"n_seeds": 2, "restarts": 4, "backtrace_keep": 0}
+    planners = build_planners(["lspp", "lspp_seed"], None, overrides)
+    assert (planners["lspp"].config.n_seeds, planners["lspp"].config.restarts) == (2, 4)
+    assert planners["lspp"].config.backtrace_keep == 0
+    assert planners["lspp_seed"].config.n_seeds == 1  # the seed's row keeps its configuration
