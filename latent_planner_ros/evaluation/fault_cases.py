@@ -50,6 +50,7 @@ from latent_planner_ros.evaluation.fault_inputs import (
 from latent_planner_ros.evaluation.fault_startup import run_startup_group
 from latent_planner_ros.evaluation.fault_suite import FaultSuite, plan_fault_suite
 from latent_planner_ros.evaluation.stats import percentile
+from latent_planner_ros.nodes.planner_config import PlannerNodeConfig
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig
 from latent_planner_ros.supervisor import StartupError
 
@@ -98,8 +99,17 @@ def huge_cloud(ctx: Ctx) -> None:
     big = xyz_to_cloud(pts.astype(np.float32))
     t0 = time.monotonic()
     ctx.probe.set_cloud(big, rate_hz=1.0)
+    limit = PlannerNodeConfig().cloud_max_points
     ok = ctx.value_seen("cloud_points_in", lambda v: v == str(HUGE_POINTS), t0, timeout_s=15.0)
-    ctx.check(f"planner status reports {HUGE_POINTS} points", ok)
+    statuses = ctx.probe.statuses_since("planner", t0)
+    used = {s.values.get("cloud_points_used") for s in statuses if s.values.get("cloud_points_in") == str(HUGE_POINTS)}
+    ok = ok and all(u is not None and u.isdigit() and 0 < int(u) <= limit for u in used)
+    seen_in = sorted({s.values.get("cloud_points_in", "-") for s in statuses})
+    ctx.check(
+        f"planner status reports {HUGE_POINTS} points in, at most {limit} used",
+        ok,
+        f"points in seen: {seen_in}, used with {HUGE_POINTS} in: {sorted(used)}",
+    )
     if ctx.backend == "learned":
         ctx.check(
             "scene_encoder downsamples it", ctx.seen(f"downsampled from {HUGE_POINTS}", t0, ("scene_encoder",), 15)

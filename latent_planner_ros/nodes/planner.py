@@ -2,8 +2,9 @@
 
 Subscribes joint_states, goal_pose, scene_embedding (learned backend) and camera/points (geometric
 backend, the hard check, and the goal-inside-obstacle check; only the newest cloud is converted, once per tick,
-so a fast camera cannot starve the control loop). Joint states that are malformed or far outside the joint
-limits are refused (the last good one goes stale and commands stop). Publishes joint_command (when enabled),
+so a fast camera cannot starve the control loop; clouds above `cloud_max_points` are voxel-downsampled first).
+Joint states that are malformed or far outside the joint limits are refused (the last good one goes stale and
+commands stop). Publishes joint_command (when enabled),
 ~/trajectory, ~/markers, ~/status (with the last cloud's point counts). Services ~/plan (nav_msgs/GetPlan)
 and ~/enable (std_srvs/SetBool).
 
@@ -40,6 +41,7 @@ from latent_planner_ros.models.vae_io import load_vae
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.planner_config import PlannerNodeConfig
+from latent_planner_ros.perception.scene_input import limit_points
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.backends import make_backend
 from latent_planner_ros.planning.closed_loop import ClosedLoopController, TickOutcome
@@ -78,7 +80,7 @@ class PlannerNode(Node):
         self._cloud_msg: PointCloud2 | None = None  # the newest cloud, not yet converted
         self._cloud_time = 0.0
         self._last_cloud = None  # (points (N, 3), receipt time [s]) of the last converted cloud
-        self._cloud_points = (0, 0)  # points received, points used (finite) of the last cloud
+        self._cloud_points = (0, 0)  # points received, points used (finite, downsampled) of the last cloud
         self._cylinders: dict = {}  # {(ns, id): (x, y, h, r) [m]} of the accepted obstacle markers
         self._obstacle_notes = ""
         self._markers_published = 0  # obstacle markers drawn on ~/markers so far
@@ -178,6 +180,7 @@ class PlannerNode(Node):
         except AdapterError as err:
             self._error(f"camera/points refused: {err}")
             return
+        cloud, _ = limit_points(cloud, self.config.cloud_max_points, self.config.cloud_voxel_m)
         self._cloud_points = (int(msg.width) * int(msg.height), len(cloud))
         self._last_cloud = (cloud, self._cloud_time)
         self._apply_cloud(cloud, self._cloud_time)

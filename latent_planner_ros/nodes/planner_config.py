@@ -27,6 +27,10 @@ class PlannerNodeConfig:
     """largest tilt [deg] of a cylinder marker's axis from the vertical; more is refused"""
     obstacle_z_tol_m: float = 0.01
     """largest difference [m] between a cylinder marker's pose.position.z and scale.z / 2 (standing on z = 0)"""
+    cloud_max_points: int = 100_000
+    """camera/points clouds with more finite points are voxel-downsampled to at most this many (bounded tick time)"""
+    cloud_voxel_m: float = 0.01
+    """[m] first voxel edge of that downsampling (grown until the cloud fits); 0 = keep evenly spaced points"""
     status_rate_hz: float = 2.0
     """status publishing rate [Hz]"""
     closed_loop: ClosedLoopConfig = field(default_factory=ClosedLoopConfig)
@@ -37,9 +41,12 @@ class PlannerNodeConfig:
     def __post_init__(self) -> None:
         if not (isinstance(self.status_rate_hz, int | float) and 0 < self.status_rate_hz <= 100):
             raise ValueError(f"status_rate_hz must be in (0, 100], got {self.status_rate_hz!r}")
+        n = self.cloud_max_points
+        if not (isinstance(n, int) and not isinstance(n, bool) and 1_000 <= n <= 10_000_000):
+            raise ValueError(f"cloud_max_points must be an integer in [1000, 10000000], got {n!r}")
         if self.lspp_check not in CHECKS:
             raise ValueError(f"lspp_check must be one of {CHECKS}, got {self.lspp_check!r}")
-        for name, high in (("obstacle_tilt_tol_deg", 45.0), ("obstacle_z_tol_m", 1.0)):
+        for name, high in (("obstacle_tilt_tol_deg", 45.0), ("obstacle_z_tol_m", 1.0), ("cloud_voxel_m", 0.5)):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) and 0 <= v <= high):
                 raise ValueError(f"{name} must be a number in [0, {high}], got {v!r}")
