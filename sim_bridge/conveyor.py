@@ -1,7 +1,8 @@
 """The ``conveyor`` generator: a belt across the workspace carrying a target object and an obstacle.
 
 The belt runs along world y in front of the robot. A small box (the tagged target object) and a box
-obstacle of random size ride on it at the same speed, wrapping round or bouncing at the belt's ends.
+obstacle of random size ride on it at the same speed, wrapping round at the belt's ends or (bounce) with
+the belt reversing whenever an object reaches an end, so both reverse together and keep their distance.
 The target pose (published on ``target_pose``) follows the target object: the end effector pointing
 down, ``approach_height`` above the object's top face.
 """
@@ -28,7 +29,8 @@ class ConveyorParams:
 
     Attributes:
         speed: [m/s] belt speed along +y (negative: along -y).
-        mode: "wrap" (objects leaving one end reappear at the other) or "bounce" (they reverse).
+        mode: "wrap" (objects leaving one end reappear at the other) or "bounce" (the belt reverses when an
+            object reaches an end; all objects reverse together).
         belt_x: [m] x of the belt's centre line; belt_length, belt_width: [m]; belt_height: [m] top face z.
         target_half_extents: [m] half extents (3,) of the target box.
         approach_height: [m] height of the target pose above the target object's top face.
@@ -70,14 +72,24 @@ class ConveyorParams:
             raise ScenarioError(f"belt_length: {self.belt_length} m cannot hold target, obstacle and min_gap")
 
 
-def _on_belt(p: ConveyorParams, name: str, half_extents: np.ndarray, x: float, y: float, rgba) -> SceneObject:
-    """A box resting on the belt at (x, y), moving with it."""
+def _on_belt(
+    p: ConveyorParams, name: str, half_extents: np.ndarray, x: float, y: float, rgba, shift=(-np.inf, np.inf)
+) -> SceneObject:
+    """A box resting on the belt at (x, y), moving with it.
+
+    Wrap: the object travels between the belt's ends (its centre within half its length of them). Bounce: the
+    belt reverses, so every object on it reverses at the same moment; `shift` (lowest, highest) [m] is the
+    belt's travel along y from its start position that keeps every object on the belt (see _belt_shift).
+    """
     z = p.belt_height + half_extents[2]
     half_travel = p.belt_length / 2 - half_extents[1]
+    low, high = -half_travel, half_travel
+    if p.mode == "bounce":
+        low, high = y + shift[0], y + shift[1]
     motion = Motion(
         velocity=(0.0, float(p.speed), 0.0),
-        lower=(x, -half_travel, z),
-        upper=(x, half_travel, z),
+        lower=(x, float(low), z),
+        upper=(x, float(high), z),
         mode=p.mode,
     )
     return SceneObject(
@@ -88,6 +100,15 @@ def _on_belt(p: ConveyorParams, name: str, half_extents: np.ndarray, x: float, y
         rgba=rgba,
         motion=motion if p.speed != 0.0 else None,
     )
+
+
+def _belt_shift(length: float, placed) -> tuple[float, float]:
+    """(lowest, highest) shift [m] of a reversing belt of `length` [m] from its start that keeps every object
+    on it: placed = ((y, half extent along y), ...) [m] at the start. Objects keep their distances (none can
+    pass through another), unlike objects reversing one by one at the ends."""
+    low = max(-length / 2 + half - y for y, half in placed)
+    high = min(length / 2 - half - y for y, half in placed)
+    return min(low, 0.0), max(high, 0.0)
 
 
 def conveyor(rng: np.random.Generator, params: ConveyorParams | None = None) -> Scenario:
@@ -113,8 +134,10 @@ def conveyor(rng: np.random.Generator, params: ConveyorParams | None = None) -> 
     half_travel = length / 2 - obstacle_he[1]
     y_obstacle = float(np.clip((y_target + offset + length / 2) % length - length / 2, -half_travel, half_travel))
     x_obstacle = p.belt_x + rng.uniform(-1, 1) * max(0.0, p.belt_width / 2 - obstacle_he[0])
-    target_obj = _on_belt(p, "target", target_he, p.belt_x, y_target, TARGET_RGBA)
-    obstacle = _on_belt(p, "obstacle", obstacle_he, x_obstacle, y_obstacle, OBSTACLE_RGBA)
+    placed = ((y_target, target_he[1]), (y_obstacle, obstacle_he[1]))
+    shift = _belt_shift(length, placed)
+    target_obj = _on_belt(p, "target", target_he, p.belt_x, y_target, TARGET_RGBA, shift)
+    obstacle = _on_belt(p, "obstacle", obstacle_he, x_obstacle, y_obstacle, OBSTACLE_RGBA, shift)
     target = Target(position=(0.0, 0.0, float(target_he[2] + p.approach_height)), quaternion_xyzw=DOWN, object="target")
     return Scenario(
         name="conveyor",

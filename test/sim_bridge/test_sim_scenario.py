@@ -117,3 +117,18 @@ def test_conveyor_target_follows_its_object_and_keeps_the_gap():
             np.testing.assert_allclose(quat, [1, 0, 0, 0])
     with pytest.raises(ScenarioError, match="mode"):
         ConveyorParams(mode="teleport")
+
+
+def test_conveyor_bounce_reverses_the_whole_belt():
+    """Objects on a reversing belt keep their distance (none passes through another) and stay on the belt."""
+    times = np.linspace(0.0, 120.0, 2401)
+    for seed in range(20):
+        s = conveyor(np.random.default_rng(seed), ConveyorParams(speed=-0.08, mode="bounce"))
+        target, obstacle = s.object("target"), s.object("obstacle")
+        gaps = [target.position_at(t)[1] - obstacle.position_at(t)[1] for t in times]
+        np.testing.assert_allclose(gaps, gaps[0], atol=1e-9)
+        for obj in (target, obstacle):
+            ys = np.array([obj.position_at(t)[1] for t in times])
+            assert np.all(np.abs(ys) <= 0.6 - obj.half_extents[1] + 1e-9)
+        ends = [np.abs(o.position_at(t)[1]) + o.half_extents[1] for o in (target, obstacle) for t in times]
+        assert max(ends) == pytest.approx(0.6, abs=0.01)  # the belt reverses when an object reaches an end
