@@ -8,7 +8,8 @@ stale joint states, commands nothing; every outcome carries a reason for the sta
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from collections import deque
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -18,6 +19,11 @@ from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.robot.limits import JOINT_NAMES, Q_MAX, Q_MIN
 
 OK, WARN, ERROR = 0, 1, 2
+
+GOAL_VELOCITY_WINDOW_S = 0.3
+"""[s] a moving goal's velocity is estimated from the goals received over this long (see goal_lead_s)"""
+GOAL_JUMP_M = 0.05
+"""[m] a goal farther than this from the previous one is a new goal (watchdog and velocity estimate restart)"""
 
 MEASURED_LIMIT_TOL_RAD = 0.05
 """[rad] a measured joint may lie this far outside its limits (compliance, calibration); farther is a faulty
@@ -45,6 +51,11 @@ class ClosedLoopConfig:
     """goals farther than this from the base axis origin [m] are refused as out of reach"""
     goal_clearance_m: float = 0.01
     """goals with an observed point closer than this [m] are refused as inside an obstacle"""
+    goal_lead_s: float = 0.0
+    """[s] chase where a moving goal will be this far ahead: its position plus its velocity (estimated over the
+    goals of the last GOAL_VELOCITY_WINDOW_S) times this; 0 = the goal as received"""
+    goal_lead_max_m: float = 0.1
+    """[m] longest lead (a cap on velocity x goal_lead_s)"""
 
     def __post_init__(self) -> None:
         positive = ("rate_hz", "stale_joint_states_s", "stale_scene_s", "no_progress_s", "progress_m", "reach_m")
@@ -56,8 +67,10 @@ class ClosedLoopConfig:
             raise ValueError(
                 f"max_iterations_per_tick must be an integer in [1, 100], got {self.max_iterations_per_tick!r}"
             )
-        if not (isinstance(self.goal_clearance_m, int | float) and self.goal_clearance_m >= 0):
-            raise ValueError(f"goal_clearance_m must be >= 0, got {self.goal_clearance_m!r}")
+        for name in ("goal_clearance_m", "goal_lead_s", "goal_lead_max_m"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
 
 
 @dataclass
@@ -96,6 +109,7 @@ class ClosedLoopController:
         self._best_err = np.inf
         self._best_time = 0.0
         self._best_goal: np.ndarray | None = None
+        self._goal_track: deque[tuple[float, np.ndarray]] = deque()  # (time [s], position (3,) [m]) of goals
 
     # -- inputs ----------------------------------------------------------------------------------
     def set_joint_state(self, q: np.ndarray, now: float) -> tuple[bool, str]:
@@ -119,15 +133,15 @@ class ClosedLoopController:
         """The latest raw cloud (N, 3) [m], used to refuse goals inside observed obstacles."""
         self._cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
 
-    def check_goal(self, goal: Goal) -> tuple[bool, str]:
-        """(False, reason) for a goal out of reach or inside an observed obstacle, else (True, "")."""
+    def check_goal(self, goal: Goal, check_cloud: bool = True) -> tuple[bool, str]:
+        """(False, reason) for a goal out of reach or (check_cloud) inside an observed obstacle, else (True, "")."""
         dist = float(np.linalg.norm(goal.position - np.array([0.0, 0.0, 0.333])))
         if dist > self.config.reach_m:
             return (
                 False,
                 f"goal refused: {dist:.2f} m from the shoulder, beyond the reach of {self.config.reach_m:.2f} m",
             )
-        if self._cloud is not None and len(self._cloud):
+        if check_cloud and self._cloud is not None and len(self._cloud):
             d = float(np.min(np.linalg.norm(self._cloud - goal.position, axis=1)))
             if d < self.config.goal_clearance_m:
                 return False, f"goal refused: inside an observed obstacle (a point {d * 1000:.0f} mm away)"
@@ -148,16 +162,42 @@ class ClosedLoopController:
         ok, reason = self.check_goal(goal)
         if not ok:
             return False, reason
-        changed = self.goal is None or np.linalg.norm(goal.position - self.goal.position) > 0.05
+        changed = self.goal is None or np.linalg.norm(goal.position - self.goal.position) > GOAL_JUMP_M
         self.goal = goal
         if changed:
             self._failed = None
             self._best_err, self._best_time, self._best_goal = np.inf, now, None
+            self._goal_track.clear()
+        self._goal_track.append((now, np.array(goal.position, dtype=float)))
+        while len(self._goal_track) > 2 and now - self._goal_track[1][0] >= GOAL_VELOCITY_WINDOW_S:
+            self._goal_track.popleft()
         return True, "goal accepted"
+
+    def goal_velocity(self) -> np.ndarray:
+        """The current goal's velocity (3,) [m/s] over the goals of the last GOAL_VELOCITY_WINDOW_S (zeros
+        before two goals 50 ms apart)."""
+        if len(self._goal_track) < 2:
+            return np.zeros(3)
+        (t0, p0), (t1, p1) = self._goal_track[0], self._goal_track[-1]
+        return (p1 - p0) / (t1 - t0) if t1 - t0 >= 0.05 else np.zeros(3)
+
+    def chased_goal(self) -> Goal | None:
+        """The goal the planner chases this tick: the goal led by goal_lead_s of its velocity (capped at
+        goal_lead_max_m; none when the led position would be out of reach), or the goal itself."""
+        goal, cfg = self.goal, self.config
+        if goal is None or cfg.goal_lead_s <= 0.0:
+            return goal
+        lead = self.goal_velocity() * cfg.goal_lead_s
+        norm = float(np.linalg.norm(lead))
+        if norm > cfg.goal_lead_max_m:
+            lead *= cfg.goal_lead_max_m / norm
+        led = replace(goal, position=np.asarray(goal.position, dtype=float) + lead)
+        return led if self.check_goal(led, check_cloud=False)[0] else goal
 
     def clear_goal(self) -> None:
         """Forget the goal (the arm holds until a new one)."""
         self.goal = None
+        self._goal_track.clear()
 
     def restart(self, now: float) -> None:
         """Start afresh at time now [s]: clear a failure, restart the progress watchdog and re-encode the measured
@@ -195,7 +235,7 @@ class ClosedLoopController:
         t0 = time.perf_counter()
         out = self.planner.step(
             self._q,
-            self.goal,
+            self.chased_goal(),
             self._scene if use_scene else None,
             dt=1.0 / cfg.rate_hz,
             max_iterations=cfg.max_iterations_per_tick,

@@ -1,6 +1,7 @@
 """Closed-loop supervision: fresh inputs or hold, refused goals, the no-progress watchdog."""
 
 import numpy as np
+import pytest
 
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
@@ -89,3 +90,37 @@ def test_a_tracked_moving_goal_does_not_trip_the_watchdog(shipped_vae):
         states.append(out.state)
         q = out.command
     assert "failed" not in states and "reached" in states[-20:], states
+
+
+def test_goal_lead_chases_where_a_moving_goal_will_be(shipped_vae):
+    base = _goal([0.3, 0, 0, 0, 0, 0, 0])
+    c = _controller(shipped_vae, goal_lead_s=0.5, goal_lead_max_m=0.1)
+    v = np.array([0.0, 0.06, 0.0])  # [m/s], a belt
+    for k in range(8):
+        t = 0.08 * k
+        assert c.set_goal(Goal(base.position + v * t, base.rotation), t)[0]
+    np.testing.assert_allclose(c.goal_velocity(), v, atol=1e-9)
+    np.testing.assert_allclose(c.chased_goal().position, c.goal.position + 0.5 * v, atol=1e-9)
+    np.testing.assert_array_equal(c.chased_goal().rotation, base.rotation)
+    fast = _controller(shipped_vae, goal_lead_s=0.5, goal_lead_max_m=0.02)
+    for k in range(8):
+        fast.set_goal(Goal(base.position + v * 0.08 * k, base.rotation), 0.08 * k)
+    assert np.linalg.norm(fast.chased_goal().position - fast.goal.position) == pytest.approx(0.02)
+    # a jump is a new goal: no velocity from the jump itself; a still goal and lead 0 are chased as they are
+    c.set_goal(Goal(base.position + [0.0, -0.2, 0.0], base.rotation), 0.7)
+    np.testing.assert_array_equal(c.goal_velocity(), np.zeros(3))
+    np.testing.assert_allclose(c.chased_goal().position, c.goal.position)
+    still = _controller(shipped_vae)
+    for k in range(8):
+        still.set_goal(Goal(base.position + v * 0.08 * k, base.rotation), 0.08 * k)
+    assert still.chased_goal() is still.goal
+    with pytest.raises(ValueError, match="goal_lead_s"):
+        ClosedLoopConfig(goal_lead_s=float("nan"))
+
+
+def test_goal_lead_is_not_applied_beyond_reach(shipped_vae):
+    c = _controller(shipped_vae, goal_lead_s=1.0, goal_lead_max_m=0.1, reach_m=1.0)
+    edge = np.array([0.0, 0.99, 0.333])  # 0.99 m from the shoulder, moving outwards at 0.1 m/s
+    for k in range(5):
+        assert c.set_goal(Goal(edge + [0.0, 0.002 * k, 0.0], np.eye(3)), 0.02 * k)[0]
+    assert c.chased_goal() is c.goal
