@@ -1,8 +1,8 @@
 """The ``conveyor`` generator: a belt across the workspace carrying a target object and an obstacle.
 
 The belt runs along world y in front of the robot. A small box (the tagged target object) and a box
-obstacle of random size ride on it at the same speed, wrapping round at the belt's ends or (bounce) with
-the belt reversing whenever an object reaches an end, so both reverse together and keep their distance.
+obstacle of random size ride on it at the same speed and keep their distance: wrapping round together at the
+belt's ends (a loop) or (bounce) with the belt reversing whenever an object reaches an end.
 The target pose (published on ``target_pose``) follows the target object: the end effector pointing
 down, ``approach_height`` above the object's top face.
 """
@@ -67,23 +67,27 @@ class ConveyorParams:
         lo, hi = np.asarray(self.obstacle_min_half_extents), np.asarray(self.obstacle_max_half_extents)
         if np.any(lo > hi):
             raise ScenarioError("obstacle_min_half_extents: exceeds obstacle_max_half_extents")
-        needed = 2 * (self.target_half_extents[1] + hi[1]) + self.min_gap
+        t = self.target_half_extents[1]
+        needed = 2 * max(t, hi[1]) + 2 * (t + hi[1] + self.min_gap)  # the loop (see conveyor) holds both gaps
         if needed > self.belt_length:
-            raise ScenarioError(f"belt_length: {self.belt_length} m cannot hold target, obstacle and min_gap")
+            raise ScenarioError(
+                f"belt_length: {self.belt_length} m cannot hold target, obstacle and min_gap on both sides "
+                f"(needs {needed:.3f} m)"
+            )
 
 
 def _on_belt(
-    p: ConveyorParams, name: str, half_extents: np.ndarray, x: float, y: float, rgba, shift=(-np.inf, np.inf)
+    p: ConveyorParams, name: str, half_extents: np.ndarray, x: float, y: float, rgba, half_loop: float, shift
 ) -> SceneObject:
     """A box resting on the belt at (x, y), moving with it.
 
-    Wrap: the object travels between the belt's ends (its centre within half its length of them). Bounce: the
-    belt reverses, so every object on it reverses at the same moment; `shift` (lowest, highest) [m] is the
-    belt's travel along y from its start position that keeps every object on the belt (see _belt_shift).
+    Wrap: every object's centre travels the same loop [-half_loop, half_loop) [m] (so objects keep their
+    distances along the loop). Bounce: the belt reverses, so every object on it reverses at the same moment;
+    `shift` (lowest, highest) [m] is the belt's travel along y from its start that keeps every object on the
+    belt (see _belt_shift).
     """
     z = p.belt_height + half_extents[2]
-    half_travel = p.belt_length / 2 - half_extents[1]
-    low, high = -half_travel, half_travel
+    low, high = -half_loop, half_loop
     if p.mode == "bounce":
         low, high = y + shift[0], y + shift[1]
     motion = Motion(
@@ -125,19 +129,20 @@ def conveyor(rng: np.random.Generator, params: ConveyorParams | None = None) -> 
     target_he = np.asarray(p.target_half_extents, dtype=float)
     obstacle_he = rng.uniform(p.obstacle_min_half_extents, p.obstacle_max_half_extents)
     obstacle_he[:2] = np.minimum(obstacle_he[:2], [p.belt_width / 2, p.belt_length / 2])
-    # Positions along the belt: the belt is a loop of length L (for wrap); the obstacle keeps at least
-    # min_gap of free belt from the target on both sides.
+    # Positions along the belt: the objects' centres share a loop [-h, h) with h = L / 2 - the larger half
+    # length, so both stay on the belt and wrap round together; the obstacle keeps at least min_gap of free
+    # belt from the target on both sides along that loop (validated in ConveyorParams).
     length = p.belt_length
-    y_target = rng.uniform(-length / 2 + target_he[1], length / 2 - target_he[1])
+    half_loop = length / 2 - max(target_he[1], obstacle_he[1])
+    loop = 2 * half_loop
+    y_target = rng.uniform(-half_loop, half_loop)
     clearance = target_he[1] + obstacle_he[1] + p.min_gap
-    offset = rng.uniform(clearance, max(clearance, length - clearance))
-    half_travel = length / 2 - obstacle_he[1]
-    y_obstacle = float(np.clip((y_target + offset + length / 2) % length - length / 2, -half_travel, half_travel))
+    offset = rng.uniform(clearance, max(clearance, loop - clearance))
+    y_obstacle = float((y_target + offset + half_loop) % loop - half_loop)
     x_obstacle = p.belt_x + rng.uniform(-1, 1) * max(0.0, p.belt_width / 2 - obstacle_he[0])
-    placed = ((y_target, target_he[1]), (y_obstacle, obstacle_he[1]))
-    shift = _belt_shift(length, placed)
-    target_obj = _on_belt(p, "target", target_he, p.belt_x, y_target, TARGET_RGBA, shift)
-    obstacle = _on_belt(p, "obstacle", obstacle_he, x_obstacle, y_obstacle, OBSTACLE_RGBA, shift)
+    shift = _belt_shift(length, ((y_target, target_he[1]), (y_obstacle, obstacle_he[1])))
+    target_obj = _on_belt(p, "target", target_he, p.belt_x, y_target, TARGET_RGBA, half_loop, shift)
+    obstacle = _on_belt(p, "obstacle", obstacle_he, x_obstacle, y_obstacle, OBSTACLE_RGBA, half_loop, shift)
     target = Target(position=(0.0, 0.0, float(target_he[2] + p.approach_height)), quaternion_xyzw=DOWN, object="target")
     return Scenario(
         name="conveyor",

@@ -108,9 +108,13 @@ def test_conveyor_target_follows_its_object_and_keeps_the_gap():
         s = conveyor(np.random.default_rng(seed), ConveyorParams(speed=0.1))
         target, obstacle = s.object("target"), s.object("obstacle")
         assert obstacle.motion is not None and obstacle.motion.velocity == (0.0, 0.1, 0.0)
-        gap = abs(target.position[1] - obstacle.position[1])
-        loop_gap = min(gap, 1.2 - gap) - target.half_extents[1] - obstacle.half_extents[1]
-        assert loop_gap >= 0.15 - 0.02  # min_gap, up to the clipping at the belt's ends
+        loop = obstacle.motion.upper[1] - obstacle.motion.lower[1]
+        assert target.motion.lower == (0.5, obstacle.motion.lower[1], target.position[2])  # one loop for both
+        for t in np.linspace(0.0, 60.0, 601):  # several laps: the free belt between them stays >= min_gap
+            d = (obstacle.position_at(t)[1] - target.position_at(t)[1]) % loop
+            assert min(d, loop - d) - target.half_extents[1] - obstacle.half_extents[1] >= 0.15 - 1e-9
+            for obj in (target, obstacle):
+                assert abs(obj.position_at(t)[1]) + obj.half_extents[1] <= 0.6 + 1e-9
         for t in (0.0, 3.3, 17.0):
             pos, quat = s.target_pose_at(t)
             np.testing.assert_allclose(pos, target.position_at(t) + [0, 0, 0.025 + 0.1])
