@@ -51,9 +51,10 @@ class ClosedLoopConfig:
     """goals farther than this from the base axis origin [m] are refused as out of reach"""
     goal_clearance_m: float = 0.01
     """goals with an observed point closer than this [m] are refused as inside an obstacle"""
-    goal_lead_s: float = 0.0
+    goal_lead_s: float = 0.3
     """[s] chase where a moving goal will be this far ahead: its position plus its velocity (estimated over the
-    goals of the last GOAL_VELOCITY_WINDOW_S) times this; 0 = the goal as received"""
+    goals of the last GOAL_VELOCITY_WINDOW_S) times this, to make up for the lag of commands and arm; 0 = the
+    goal as received (a still goal is chased as it is either way)"""
     goal_lead_max_m: float = 0.1
     """[m] longest lead (a cap on velocity x goal_lead_s)"""
 

@@ -106,14 +106,18 @@ def test_goal_lead_chases_where_a_moving_goal_will_be(shipped_vae):
     for k in range(8):
         fast.set_goal(Goal(base.position + v * 0.08 * k, base.rotation), 0.08 * k)
     assert np.linalg.norm(fast.chased_goal().position - fast.goal.position) == pytest.approx(0.02)
-    # a jump is a new goal: no velocity from the jump itself; a still goal and lead 0 are chased as they are
+    # a jump is a new goal: no velocity from the jump itself; with lead 0, or a still goal, the goal is chased
     c.set_goal(Goal(base.position + [0.0, -0.2, 0.0], base.rotation), 0.7)
     np.testing.assert_array_equal(c.goal_velocity(), np.zeros(3))
     np.testing.assert_allclose(c.chased_goal().position, c.goal.position)
-    still = _controller(shipped_vae)
+    off = _controller(shipped_vae, goal_lead_s=0.0)
     for k in range(8):
-        still.set_goal(Goal(base.position + v * 0.08 * k, base.rotation), 0.08 * k)
-    assert still.chased_goal() is still.goal
+        off.set_goal(Goal(base.position + v * 0.08 * k, base.rotation), 0.08 * k)
+    assert off.chased_goal() is off.goal
+    still = _controller(shipped_vae)  # the default lead
+    for k in range(8):
+        still.set_goal(Goal(base.position, base.rotation), 0.08 * k)
+    np.testing.assert_allclose(still.chased_goal().position, base.position)
     with pytest.raises(ValueError, match="goal_lead_s"):
         ClosedLoopConfig(goal_lead_s=float("nan"))
 
