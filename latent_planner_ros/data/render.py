@@ -7,6 +7,7 @@ import numpy as np
 from latent_planner_ros.data.camera import CameraConfig, CameraIntrinsics, sample_camera_pose
 from latent_planner_ros.data.obstacle_geometry import triangle_mesh
 from latent_planner_ros.data.scene import Scene
+from sim_bridge.cloud import voxel_downsample as sim_voxel_downsample
 
 TABLE_TOP = ((-0.6, -1.2), (1.6, 1.2))
 """Rendered table top: (x_min, y_min), (x_max, y_max) [m] of the plane z = 0."""
@@ -88,11 +89,8 @@ def scene_cloud(
 
 
 def voxel_downsample(points: np.ndarray, size: float) -> np.ndarray:
-    """One point per occupied cubic voxel of edge `size` [m] (the mean of its points), float32 (M, 3)."""
+    """One point per occupied cubic voxel of edge `size` [m] (the mean of its points), float32 (M, 3); the sim
+    camera's downsampling (sim_bridge.cloud.voxel_downsample)."""
     if len(points) == 0 or size <= 0.0:
         return points
-    keys = np.floor(points / size).astype(np.int64)
-    _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
-    sums = np.zeros((len(counts), 3))
-    np.add.at(sums, inverse.ravel(), points)
-    return (sums / counts[:, None]).astype(np.float32)
+    return sim_voxel_downsample(np.asarray(points, dtype=float), size).astype(np.float32)
