@@ -168,6 +168,7 @@ class ClosedLoopController:
         if changed:
             self._failed = None
             self._best_err, self._best_time, self._best_goal = np.inf, now, None
+        if changed or (self._goal_track and now < self._goal_track[-1][0]):  # a new goal, or the clock went back
             self._goal_track.clear()
         self._goal_track.append((now, np.array(goal.position, dtype=float)))
         while len(self._goal_track) > 2 and now - self._goal_track[1][0] >= GOAL_VELOCITY_WINDOW_S:

@@ -110,6 +110,11 @@ def test_goal_lead_chases_where_a_moving_goal_will_be(shipped_vae):
     c.set_goal(Goal(base.position + [0.0, -0.2, 0.0], base.rotation), 0.7)
     np.testing.assert_array_equal(c.goal_velocity(), np.zeros(3))
     np.testing.assert_allclose(c.chased_goal().position, c.goal.position)
+    for k in range(3):  # the clock went back (a simulator reset): the estimate restarts
+        c.set_goal(Goal(base.position + [0.0, -0.2 + 0.01 * k, 0.0], base.rotation), 0.8 + 0.08 * k)
+    c.set_goal(Goal(base.position + [0.0, -0.17, 0.0], base.rotation), 0.1)
+    c.set_goal(Goal(base.position + [0.0, -0.164, 0.0], base.rotation), 0.2)
+    np.testing.assert_allclose(c.goal_velocity(), [0.0, 0.06, 0.0], atol=1e-9)
     off = _controller(shipped_vae, goal_lead_s=0.0)
     for k in range(8):
         off.set_goal(Goal(base.position + v * 0.08 * k, base.rotation), 0.08 * k)
