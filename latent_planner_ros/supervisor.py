@@ -78,6 +78,12 @@ class _Running:
         self.readers: list[threading.Thread] = []
 
 
+def _default_sigint() -> None:
+    """In a child before exec: SIGINT at its default action, even if this process ignores it (as a background
+    job of a non-interactive shell does); stop() relies on SIGINT ending the children gracefully."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 class Supervisor:
     """Runs a list of processes as one suite (see the module docstring).
 
@@ -147,6 +153,7 @@ class Supervisor:
                     stdout=subprocess.PIPE,
                     stderr=subprocess.PIPE,
                     process_group=0,
+                    preexec_fn=_default_sigint,
                 )
             except OSError as err:
                 self.stop()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import signal
+import subprocess
 import sys
 import threading
 import time
@@ -144,3 +145,19 @@ def test_a_missing_program_is_a_startup_error():
     suite, _, _ = make(ProcessSpec("ghost", ("/nonexistent/program",)))
     with pytest.raises(StartupError, match="node ghost could not be started"):
         suite.start()
+
+
+def test_children_stop_on_sigint_even_when_the_supervisor_ignores_it():
+    """A supervisor started as a background job of a non-interactive shell inherits SIGINT ignored; its
+    children must still end gracefully on the SIGINT of stop()."""
+    code = (
+        "import signal, sys\n"
+        "signal.signal(signal.SIGINT, signal.SIG_IGN)\n"
+        "from latent_planner_ros.supervisor import ProcessSpec, Supervisor\n"
+        f"suite = Supervisor([ProcessSpec('long', (sys.executable, '-u', '-c', {SLEEPER!r}))])\n"
+        "suite.start()\n"
+        "assert suite.wait_ready(lambda: {'long'} if suite.tail('long') else set(), timeout_s=10.0)\n"
+        "print('CODES', suite.stop(sigint_timeout_s=10.0))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=50)
+    assert f"CODES {{'long': {-signal.SIGINT}}}" in proc.stdout, proc.stdout + proc.stderr
