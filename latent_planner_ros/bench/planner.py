@@ -62,10 +62,9 @@ def open_loop(planner: AmpLs, problems: list[Problem], label: str) -> dict:
     }
 
 
-def closed_loop(
-    planner: AmpLs, problems: list[Problem], label: str, ticks: int, iterations: int, budget_s: float | None = None
-) -> dict:
-    """Tick timings [ms] and closed-loop success (within tolerance by the end, no collision)."""
+def closed_loop(planner: AmpLs, problems: list[Problem], label: str, ticks: int, loop: ClosedLoopConfig) -> dict:
+    """Tick timings [ms] and closed-loop success (within tolerance by the end, no collision), each tick as the
+    planner node's (`loop`: its steps per tick and time budget)."""
     tick_ms, successes, collisions = [], 0, 0
     for pr in tqdm(problems, desc=f"closed loop, {label}", dynamic_ncols=True):
         planner.reset()
@@ -76,7 +75,15 @@ def closed_loop(
             planner.backend.set_scene(scene)
         for _ in range(ticks):
             t0 = time.perf_counter()
-            out = planner.step(q, pr.goal, None, dt=0.1, max_iterations=iterations, budget_s=budget_s)
+            out = planner.step(
+                q,
+                pr.goal,
+                None,
+                dt=1.0 / loop.rate_hz,
+                max_iterations=loop.max_iterations_per_tick,
+                budget_s=loop.tick_budget_ms / 1000.0,
+                accepted_steps=loop.accepted_steps_per_tick,
+            )
             tick_ms.append(1000.0 * (time.perf_counter() - t0))
             q = out.command
             path.append(q)
@@ -132,10 +139,7 @@ def main(argv: list[str]) -> int:
     results: dict = {"backend": args.backend, "config": config.to_dict()}
     for key, probs in problems.items():
         results[key] = open_loop(planner, probs, key)
-        loop = ClosedLoopConfig()
-        results[key].update(
-            closed_loop(planner, probs, key, args.ticks, loop.max_iterations_per_tick, loop.tick_budget_ms / 1000.0)
-        )
+        results[key].update(closed_loop(planner, probs, key, args.ticks, ClosedLoopConfig()))
     all_ticks = results["free"]["tick_ms"] + results["cluttered"]["tick_ms"]
     results["tick_ms_p50"] = float(np.percentile(all_ticks, 50))
     results["tick_ms_p99"] = float(np.percentile(all_ticks, 99))

@@ -199,6 +199,14 @@ class AmpLs:
         events["pos_err"], events["ori_err"], events["p_col"] = pos_err, ori_err, p_col.detach().numpy()
         return events
 
+    def _direct_target(self, q_from: np.ndarray, q_last: np.ndarray, q_first: np.ndarray) -> np.ndarray:
+        """The state to command from q_from (7,) [rad]: q_last when the straight segment to it passes the hard
+        check (no check needed when it is q_first, whose segment was checked), else q_first."""
+        if np.array_equal(q_last, q_first):
+            return q_last
+        seg = interpolate(q_from, q_last, self._n_checks(q_from, q_last))
+        return q_first if self._check_segments([seg])[0].any() else q_last
+
     # -- open loop ------------------------------------------------------------------------------------
     def plan(self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None) -> PlanResult:
         """Plan from start_q (7,) [rad] to `goal`; `cloud` (N, 3) [m] is the observed scene."""
@@ -318,12 +326,16 @@ class AmpLs:
         max_iterations: int = 1,
         resync_rad: float = 0.3,
         budget_s: float | None = None,
+        accepted_steps: int = 1,
     ) -> StepResult:
-        """One closed-loop tick: at most `max_iterations` optimisation steps, stopping at the first accepted one,
-        and (budget_s [s]) before a step that would likely end past the budget (the last step's time as estimate).
+        """One closed-loop tick: at most `max_iterations` optimisation steps, stopping once `accepted_steps` of
+        them were accepted (or the goal is reached), and (budget_s [s]) before a step that would likely end past
+        the budget (the last step's time as estimate).
 
-        The returned command lies on the collision-checked segment from q_measured to the accepted state,
-        scaled so no joint exceeds speed_scale * its velocity limit over dt [s].
+        The returned command lies on a collision-checked segment from q_measured: to the last accepted state when
+        the straight segment to it passes the hard check (after several accepted steps it is checked once more,
+        as one segment), else to the first accepted state (whose segment was checked). It is scaled so no joint
+        exceeds speed_scale * its velocity limit over dt [s].
         """
         cfg = self.config
         q_measured = np.asarray(q_measured, dtype=float)
@@ -336,21 +348,26 @@ class AmpLs:
             s = self._search = _Search(self, q_measured, cfg.closed_loop_seeds)
         s.q_prev[:] = q_measured  # the robot is where it is: check from here
         ev: dict = {}
+        first_accepted: dict[int, np.ndarray] = {}  # seed -> its first state accepted in this tick
+        n_accepted = 0
         t_start = time.perf_counter()
         for _ in range(max_iterations):
             t_iter = time.perf_counter()
             ev = self._iterate(s, goal, accept=True)
-            if ev["accepted"] or ev["reached"]:
+            for i in ev["accepted"]:
+                first_accepted.setdefault(i, s.q_prev[i].copy())
+            n_accepted += bool(ev["accepted"])
+            if ev["reached"] or n_accepted >= accepted_steps:
                 break
             now = time.perf_counter()
             if budget_s is not None and (now - t_start) + (now - t_iter) > budget_s:
                 break
         for i in range(len(s.paths)):  # the closed loop needs no history: keep memory bounded over long runs
             s.paths[i] = s.paths[i][-1:]
-        candidates = ev.get("reached") or ev.get("accepted") or [0]
+        candidates = ev.get("reached") or list(first_accepted) or [0]
         b = min(candidates, key=lambda i: float(ev["pos_err"][i]) if "pos_err" in ev else 0.0)  # the closest seed
-        accepted = bool(ev["accepted"])
-        target = s.q_prev[b] if accepted else q_measured
+        accepted = b in first_accepted
+        target = self._direct_target(q_measured, s.q_prev[b], first_accepted[b]) if accepted else q_measured
         delta = target - q_measured
         limit = cfg.speed_scale * V_MAX * dt
         scale = min(1.0, float(np.min(limit / np.maximum(np.abs(delta), 1e-12))))

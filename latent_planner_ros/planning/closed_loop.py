@@ -39,7 +39,10 @@ class ClosedLoopConfig:
     stale_scene_s: float = 1.0
     """a scene older than this [s] makes the arm hold"""
     max_iterations_per_tick: int = 3
-    """optimisation steps per tick (the first accepted step ends the tick)"""
+    """optimisation steps per tick at most"""
+    accepted_steps_per_tick: int = 2
+    """the tick ends once this many of its steps were accepted (more: a moving goal is caught up faster, within
+    max_iterations_per_tick and tick_budget_ms)"""
     tick_budget_ms: float = 20.0
     """no further optimisation step starts in a tick once the time used plus the last step's time would exceed
     this [ms] (bounds the tick time; at least one step always runs)"""
@@ -64,10 +67,10 @@ class ClosedLoopConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {v!r}")
-        if not (isinstance(self.max_iterations_per_tick, int) and 1 <= self.max_iterations_per_tick <= 100):
-            raise ValueError(
-                f"max_iterations_per_tick must be an integer in [1, 100], got {self.max_iterations_per_tick!r}"
-            )
+        for name in ("max_iterations_per_tick", "accepted_steps_per_tick"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 100):
+                raise ValueError(f"{name} must be an integer in [1, 100], got {v!r}")
         for name in ("goal_clearance_m", "goal_lead_s", "goal_lead_max_m"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v >= 0):
@@ -242,6 +245,7 @@ class ClosedLoopController:
             dt=1.0 / cfg.rate_hz,
             max_iterations=cfg.max_iterations_per_tick,
             budget_s=cfg.tick_budget_ms / 1000.0,
+            accepted_steps=cfg.accepted_steps_per_tick,
         )
         tick_ms = (time.perf_counter() - t0) * 1000.0
         values = {

@@ -42,6 +42,9 @@ def test_yaml_gives_the_defaults():
         ("lspp.collision_backend", "learned", "lspp.collision_backend = cylinders"),
         ("lspp.use_collision", False, "lspp.use_collision = true"),
         ("lspp.lr", 0.0, "lr must be a positive"),
+        ("closed_loop.accepted_steps_per_tick", 0, "accepted_steps_per_tick must be an integer in"),
+        ("closed_loop.accepted_steps_per_tick", 2.0, "accepted_steps_per_tick must be an integer in"),
+        ("closed_loop.accepted_steps_per_tick", True, "accepted_steps_per_tick must be an integer in"),
     ],
 )
 def test_bad_values_are_refused_by_name(name, value, message):

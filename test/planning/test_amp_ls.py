@@ -8,7 +8,7 @@ from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.collision_backend import NoCollision
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.planning.goal import Goal
-from latent_planner_ros.planning.time_parameterisation import time_parameterise
+from latent_planner_ros.planning.time_parameterisation import interpolate, time_parameterise
 from latent_planner_ros.robot.limits import Q_MAX, Q_MIN, Q_READY, V_MAX
 from latent_planner_ros.robot.panda import load_panda
 
@@ -134,3 +134,40 @@ def test_restarts_keep_the_path_continuous(shipped_vae):
 def test_backtrace_keep_must_be_a_fraction():
     with pytest.raises(ValueError, match="backtrace_keep"):
         AmpLsConfig(backtrace_keep=1.0)
+
+
+def test_a_tick_can_take_several_accepted_steps(shipped_vae):
+    """accepted_steps=2: the tick goes on after its first accepted step, and the latent state gets closer to a
+    goal per tick than with one step (free space, perfect tracking)."""
+    goal = _goal_of(Q_READY + np.array([0.8, 0.3, 0.0, 0.4, 0.0, 0.0, 0.0]))
+    errors = {}
+    for steps in (1, 2):
+        planner = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(use_collision=False), seed=0)
+        q = Q_READY.copy()
+        for _ in range(5):
+            out = planner.step(q, goal, dt=0.1, max_iterations=3, accepted_steps=steps)
+            assert out.accepted
+            q = out.command
+        errors[steps] = out.pos_err_m
+        assert planner._search.iteration >= 5 * steps
+    assert errors[2] < errors[1]
+
+
+class JointSpaceBlock(NoCollision):
+    """A hard check that flags states with joints 0 and 1 both 0.1-0.2 rad above Q_READY (a block in joint
+    space that a straight segment crosses but a path going first along joint 0, then along joint 1, misses)."""
+
+    def check(self, q):
+        d = np.atleast_2d(q) - Q_READY
+        return (d[:, 0] > 0.1) & (d[:, 0] < 0.2) & (d[:, 1] > 0.1) & (d[:, 1] < 0.2)
+
+
+def test_several_accepted_steps_command_the_last_only_when_the_straight_segment_to_it_is_free(shipped_vae):
+    planner = AmpLs(shipped_vae, JointSpaceBlock(), AmpLsConfig(self_check=False))
+    first = Q_READY + np.array([0.3, 0.0, 0, 0, 0, 0, 0])
+    last = Q_READY + np.array([0.3, 0.3, 0, 0, 0, 0, 0])
+    assert not planner.backend.check(interpolate(Q_READY, first, 30)).any()
+    assert not planner.backend.check(interpolate(first, last, 30)).any()
+    np.testing.assert_array_equal(planner._direct_target(Q_READY, last, first), first)  # the diagonal hits
+    beside = Q_READY + np.array([0.3, -0.3, 0, 0, 0, 0, 0])
+    np.testing.assert_array_equal(planner._direct_target(Q_READY, beside, first), beside)
