@@ -1,7 +1,7 @@
 """`bench conveyor`: closed-loop tracking of a moving target, N randomised trials through the node suite.
 
     python -m latent_planner_ros bench conveyor --trials N --out DIR [--trial-duration S] [--seed N]
-        [--real-time-factor F] [--backend geometric|learned]
+        [--real-time-factor F] [--backend geometric|learned] [--only I,J] [--planner-set NAME=VALUE ...]
 
 The same processes and path as ``demo`` (sim -> camera/points [-> scene_encoder -> scene_embedding] ->
 planner -> joint_command -> sim, the planner chasing the sim's target_pose); the suite starts once and every
@@ -40,6 +40,19 @@ def trial_settings(rng: np.random.Generator, base_seed: int, index: int) -> tupl
     return base_seed * 1000 + index, overrides, drawn
 
 
+def trial_indices(only: str | None, trials: int) -> list[int]:
+    """The trial indices to run: 0..trials-1, or the comma-separated `only` (ValueError if malformed)."""
+    if only is None:
+        return list(range(trials))
+    try:
+        indices = [int(x) for x in only.split(",")]
+    except ValueError:
+        raise ValueError(f"--only takes comma-separated trial indices, got {only!r}") from None
+    if any(i < 0 for i in indices) or len(set(indices)) != len(indices):
+        raise ValueError(f"--only takes distinct indices >= 0, got {only!r}")
+    return indices
+
+
 def aggregate(rows: list[dict], ticks: list[np.ndarray]) -> dict:
     """The headline figures over trials (rows: trial_metrics dicts; ticks: per-trial tick samples [ms])."""
     n = len(rows)
@@ -47,6 +60,7 @@ def aggregate(rows: list[dict], ticks: list[np.ndarray]) -> dict:
     pooled = np.concatenate(ticks) if ticks else np.zeros(0)
     reach = [r["time_to_reach_s"] for r in rows if r["time_to_reach_s"] is not None]
     dists = [r["min_obstacle_distance_m"] for r in rows if r["min_obstacle_distance_m"] is not None]
+    gaps = [r["command_gap_max_s"] for r in rows if r.get("command_gap_max_s") is not None]
     return {
         "trials": n,
         "successes": int(k),
@@ -61,6 +75,7 @@ def aggregate(rows: list[dict], ticks: list[np.ndarray]) -> dict:
         "tick_ms_max": float(pooled.max()) if pooled.size else None,
         "ticks_reported": int(pooled.size),
         "missed_ticks": int(sum(r["missed_ticks"] for r in rows)),
+        "command_gap_max_s": max(gaps) if gaps else None,
         "time_to_reach_s_median": float(np.median(reach)) if reach else None,
         "tracking_fraction_median": float(np.median([r["tracking_fraction"] for r in rows])) if rows else None,
         "min_obstacle_distance_m": float(min(dists)) if dists else None,
@@ -96,7 +111,8 @@ def markdown(res: dict) -> str:
         f"| min arm-object distance | {_cm(res['min_obstacle_distance_m'])} cm |",
         f"| planner tick p50 / p99 / max | {_fmt(res['tick_ms_p50'], '.1f')} / {_fmt(res['tick_ms_p99'], '.1f')} / "
         f"{_fmt(res['tick_ms_max'], '.1f')} ms |",
-        f"| missed control periods | {res['missed_ticks']} |",
+        f"| missed control periods | {res['missed_ticks']} (longest time between commands "
+        f"{_fmt(res.get('command_gap_max_s'), '.2f')} s) |",
         "",
         "| # | seed | speed [m/s] | mode | target half edge [m] | reached [s] | tracked | contacts | "
         "min dist [cm] | tick p99 [ms] | missed |",
@@ -140,16 +156,36 @@ def main(argv: list[str]) -> int:
     p.add_argument("--real-time-factor", type=float, default=1.0, metavar="F", help="sim pace (default 1)")
     p.add_argument("--backend", choices=("geometric", "learned"), help="default: config/planner.yaml's")
     p.add_argument("--domain-id", type=int, metavar="N", help="ROS_DOMAIN_ID (default: the environment's)")
+    p.add_argument(
+        "--only",
+        metavar="I,J",
+        help="run only these trials (0-based indices into the sequence --seed draws), e.g. to re-run an earlier "
+        "run's failures; replaces --trials",
+    )
+    p.add_argument(
+        "--planner-set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a planner parameter for this run on top of config/planner.yaml (repeatable), e.g. "
+        "closed_loop.goal_lead_s=0.5",
+    )
     args = p.parse_args(argv)
     if args.trials < 1 or args.trial_duration <= 0 or not 0.1 <= args.real_time_factor <= 10:
         p.error("--trials >= 1, --trial-duration > 0 and --real-time-factor in [0.1, 10] are required")
+    try:
+        indices = trial_indices(args.only, args.trials)
+    except ValueError as err:
+        p.error(str(err))
 
     from latent_planner_ros.evaluation.conveyor_suite import ConveyorSuite, StartupError, SuiteFailed, plan_suite
     from latent_planner_ros.evaluation.trial import SuccessRule, tick_samples, tracking, trial_metrics
     from latent_planner_ros.node_suite import SuiteError
 
     try:
-        plan = plan_suite(args.backend, seed=args.seed, real_time_factor=args.real_time_factor)
+        plan = plan_suite(
+            args.backend, seed=args.seed, real_time_factor=args.real_time_factor, planner_set=args.planner_set
+        )
     except SuiteError as err:
         print(f"[bench conveyor] error: {err}", file=sys.stderr)
         return 2
@@ -162,8 +198,9 @@ def main(argv: list[str]) -> int:
         with ConveyorSuite(plan, log_path=log_path, domain_id=args.domain_id) as suite:
             up_s = suite.start()
             print(f"[bench conveyor] {', '.join(plan.nodes)} up after {up_s:.1f} s", file=sys.stderr)
-            for i in range(args.trials):
-                seed, overrides, drawn = trial_settings(rng, args.seed, i)
+            draws = [trial_settings(rng, args.seed, i) for i in range(max(indices) + 1)]
+            for n, i in enumerate(indices):
+                seed, overrides, drawn = draws[i]
                 log = suite.run_trial(args.trial_duration, seed=seed, overrides=overrides)
                 tr = tracking(log)
                 m = trial_metrics(log, track=tr)
@@ -171,7 +208,7 @@ def main(argv: list[str]) -> int:
                 tracks.append(tr)
                 ticks.append(tick_samples(log.tick_ms))
                 print(
-                    f"[bench conveyor] trial {i + 1}/{args.trials} (seed {seed}, {drawn}): "
+                    f"[bench conveyor] trial {n + 1}/{len(indices)} (index {i}, seed {seed}, {drawn}): "
                     f"{'success' if m['success'] else 'failure'}; reached {_fmt(m['time_to_reach_s'], '.1f')} s, "
                     f"tracked {m['tracked']}, contacts {m['collisions']}, tick p99 {_fmt(m['tick_ms_p99'], '.0f')} ms",
                     file=sys.stderr,
@@ -194,6 +231,8 @@ def main(argv: list[str]) -> int:
         notes=list(plan.notes),
         real_time_factor=plan.real_time_factor,
         trial_duration_s=args.trial_duration,
+        trial_indices=indices,
+        planner_set=list(args.planner_set),
         rule={"pos_tol_m": rule.pos_tol_m, "ori_tol_deg": rule.ori_tol_deg, "hold_s": rule.hold_s},
         randomisation={
             "speed_m_s": list(SPEED_RANGE),

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
@@ -86,6 +86,7 @@ def plan_suite(
     seed: int = 0,
     real_time_factor: float = 1.0,
     status_rate_hz: float = 10.0,
+    planner_set: Sequence[str] = (),
 ) -> SuitePlan:
     """The suite for a conveyor run.
 
@@ -96,6 +97,8 @@ def plan_suite(
         seed: the sim's scenario seed (target and obstacle layout).
         real_time_factor: the sim's pace.
         status_rate_hz: the planner's status rate (10 Hz reports about every control tick's timing).
+        planner_set: "NAME=VALUE" planner parameters on top of config/planner.yaml (SuiteError if malformed; a
+            bad value makes the planner refuse to start, which the suite reports).
     """
     configured, checkpoint = configured_planner()
     chosen = backend or configured
@@ -118,6 +121,11 @@ def plan_suite(
     planner_params = ["enabled:=false", f"status_rate_hz:={float(status_rate_hz)}"]
     if chosen != configured:
         planner_params.append(f"amp_ls.collision_backend:={chosen}")
+    for item in planner_set:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip() or not value.strip() or ":=" in item:
+            raise SuiteError(f"planner parameter {item!r} is not NAME=VALUE (e.g. closed_loop.goal_lead_s=0.5)")
+        planner_params.append(f"{name.strip()}:={value.strip()}")
     return SuitePlan(
         nodes=nodes,
         params={

@@ -183,7 +183,8 @@ def missed_ticks(command_t: np.ndarray, period_s: float, duration_s: float) -> i
     """Control periods of the trial [0, duration_s] without a joint_command (stamps command_t [s]).
 
     Periods are counted on the grid of the commands received: the gaps between them (a late tick is not
-    missed), plus whole periods before the first and after the last.
+    missed), plus whole periods before the first and after the last beyond half a period of timer jitter (a
+    window edge falls anywhere between two ticks).
     """
     c = np.unique(np.asarray(command_t, dtype=float))
     c = c[(c >= 0.0) & (c <= duration_s)]
@@ -191,9 +192,17 @@ def missed_ticks(command_t: np.ndarray, period_s: float, duration_s: float) -> i
         return int(np.floor(duration_s / period_s + 1e-9))
     expected = int(np.floor((c[-1] - c[0]) / period_s + 0.5)) + 1
     inside = max(0, expected - len(c))
-    before = int(np.floor(c[0] / period_s + 1e-9))
-    after = int(np.floor((duration_s - c[-1]) / period_s + 1e-9))
+    before = max(0, int(np.floor(c[0] / period_s - 0.5 + 1e-9)))
+    after = max(0, int(np.floor((duration_s - c[-1]) / period_s - 0.5 + 1e-9)))
     return inside + before + after
+
+
+def longest_command_gap(command_t: np.ndarray, duration_s: float) -> float | None:
+    """The longest time [s] between consecutive joint_commands of the trial window [0, duration_s] (None with
+    fewer than two)."""
+    c = np.unique(np.asarray(command_t, dtype=float))
+    c = c[(c >= 0.0) & (c <= duration_s)]
+    return float(np.diff(c).max()) if len(c) >= 2 else None
 
 
 def _opt(value) -> float | None:
@@ -207,8 +216,8 @@ def trial_metrics(log: TrialLog, rule: SuccessRule | None = None, track: Trackin
     tracking_fraction (time within / time since first reached), final_pos_err_m, final_ori_err_deg,
     median_pos_err_after_reach_m, median_ori_err_after_reach_deg, min_obstacle_distance_m, collisions
     (contacts begun), contact_s, tick_ms_p50, tick_ms_p99, tick_ms_max, ticks_reported, commands,
-    missed_ticks, first_tick_ms, planner_states (state -> fraction of status messages), planner_failures (distinct
-    status messages of the "failed" state), duration_s, rule.
+    missed_ticks, command_gap_max_s, first_tick_ms, planner_states (state -> fraction of status messages),
+    planner_failures (distinct status messages of the "failed" state), duration_s, rule.
     """
     rule = rule or SuccessRule()
     tr = track if track is not None else tracking(log, rule)
@@ -245,6 +254,7 @@ def trial_metrics(log: TrialLog, rule: SuccessRule | None = None, track: Trackin
         "ticks_reported": int(len(ticks)),
         "commands": int(len(np.unique(log.command_t))),
         "missed_ticks": missed_ticks(log.command_t, log.command_period_s, log.duration_s),
+        "command_gap_max_s": longest_command_gap(log.command_t, log.duration_s),
         "first_tick_ms": _opt(ticks[0]) if len(ticks) else None,
         "planner_states": {str(s): float(c / counts.sum()) for s, c in zip(states, counts, strict=True)},
         "planner_failures": sorted(

@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from latent_planner_ros.bench.conveyor import SPEED_RANGE, TARGET_HALF_RANGE, aggregate, markdown, trial_settings
+from latent_planner_ros.bench.conveyor import (
+    SPEED_RANGE,
+    TARGET_HALF_RANGE,
+    aggregate,
+    markdown,
+    trial_indices,
+    trial_settings,
+)
 from latent_planner_ros.evaluation.stats import wilson_ci95
 from sim_bridge.scenario_files import load_scenario, parse_overrides
 
@@ -64,3 +71,11 @@ def test_wilson_interval():
     lo, hi = wilson_ci95(28, 30)
     assert lo == pytest.approx(0.787, abs=0.002) and hi == pytest.approx(0.982, abs=0.002)
     assert wilson_ci95(0, 0) == (0.0, 1.0)
+
+
+def test_only_picks_trials_of_the_sequence_and_refuses_bad_lists():
+    assert trial_indices(None, 3) == [0, 1, 2]
+    assert trial_indices("44,6", 100) == [44, 6]
+    for bad in ("a,b", "3,3", "-1", ""):
+        with pytest.raises(ValueError, match="--only"):
+            trial_indices(bad, 10)

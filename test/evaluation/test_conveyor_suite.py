@@ -63,3 +63,12 @@ def test_learned_with_weights_runs_the_scene_encoder(monkeypatch, tmp_path):
     assert plan.notes == ()
     geometric = plan_suite("geometric")
     assert "amp_ls.collision_backend:=geometric" in geometric.params["planner"]
+
+
+def test_planner_parameters_can_be_set_for_a_run():
+    plan = plan_suite("geometric", planner_set=["closed_loop.goal_lead_s=0.5", " amp_ls.lr = 0.1"])
+    planner = _argv(plan, "planner")
+    assert "closed_loop.goal_lead_s:=0.5" in planner and "amp_ls.lr:=0.1" in planner
+    for bad in ("goal_lead_s", "=1", "a=", "a:=1"):
+        with pytest.raises(SuiteError, match="NAME=VALUE"):
+            plan_suite("geometric", planner_set=[bad])

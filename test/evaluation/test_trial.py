@@ -11,6 +11,7 @@ from latent_planner_ros.evaluation.trial import (
     TrialLog,
     contact_events,
     format_summary,
+    longest_command_gap,
     missed_ticks,
     plot_tracking,
     target_at,
@@ -129,6 +130,12 @@ def test_tick_statistics_and_missed_ticks():
     late[10] += 0.06  # a late tick is not a missed one
     assert missed_ticks(late, 0.1, 6.0) == 0
     assert missed_ticks(np.arange(1.05, 6.0, 0.1), 0.1, 6.0) == 10  # the first second without commands
+    # a window edge between two jittered ticks: up to half a period beyond one period is jitter, not a miss
+    jittered = np.arange(0.12, 5.95, 0.1)  # first tick 0.12 s after the start, last 0.09 s before the end
+    assert missed_ticks(jittered, 0.1, 6.0) == 0
+    assert missed_ticks(jittered[1:], 0.1, 6.0) == 1 and missed_ticks(jittered[:-2], 0.1, 6.0) == 2
+    assert longest_command_gap(cmds, 6.0) == pytest.approx(0.6)
+    assert longest_command_gap(np.array([1.0]), 6.0) is None
     assert missed_ticks(np.zeros(0), 0.1, 6.0) == 60
     m = trial_metrics(synthetic_log(approaching, commands=cmds, ticks=np.full(len(cmds), 40.0)))
     assert m["missed_ticks"] == 5
@@ -150,6 +157,7 @@ def test_summary_has_every_field_and_reads_honestly(tmp_path):
         "tick_ms_p50",
         "tick_ms_p99",
         "missed_ticks",
+        "command_gap_max_s",
         "planner_states",
     ):
         assert key in m, key
