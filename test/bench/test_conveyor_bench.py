@@ -79,3 +79,13 @@ def test_only_picks_trials_of_the_sequence_and_refuses_bad_lists():
     for bad in ("a,b", "3,3", "-1", ""):
         with pytest.raises(ValueError, match="--only"):
             trial_indices(bad, 10)
+
+
+def test_bad_only_or_planner_set_stop_before_any_process_starts(tmp_path, capsys):
+    from latent_planner_ros.bench.conveyor import main
+
+    with pytest.raises(SystemExit):
+        main(["--out", str(tmp_path), "--only", "1,1"])
+    assert "distinct" in capsys.readouterr().err
+    assert main(["--out", str(tmp_path), "--backend", "geometric", "--planner-set", "goal_lead_s"]) == 2
+    assert "NAME=VALUE" in capsys.readouterr().err
