@@ -42,11 +42,13 @@ class StepResult:
     Attributes:
         command: (7,) next joint target [rad], within limits and reachable at the velocity limits in dt.
         accepted: a new collision-checked state was accepted this tick.
-        reached: the last accepted state is within tolerance of the goal.
+        reached: the last accepted state and the measured arm are both within tolerance of the goal.
         pos_err_m, ori_err_rad: error of the last accepted state to the goal.
         p_collision: collision probability of the current decoded state.
         reason: a short status ("tracking", "reached", "rejected: p_col", "backtraced", ...).
         losses: loss terms and multipliers of the last iteration.
+        arm_pos_err_m: [m] error of the measured arm's TCP to the goal (None: not computed); the latent state can
+            run ahead of an arm that does not follow, so progress is judged on this.
     """
 
     command: np.ndarray
@@ -57,6 +59,7 @@ class StepResult:
     p_collision: float
     reason: str
     losses: dict = field(default_factory=dict)
+    arm_pos_err_m: float | None = None
 
 
 class _Search:
@@ -374,8 +377,9 @@ class AmpLs:
         command = np.clip(q_measured + scale * delta, Q_MIN, Q_MAX)
         s.q_command = command
         pos_err, ori_err = self._fk_err(s.q_prev[b], goal)
-        reached = self._reached(pos_err, ori_err, goal)
-        if ev.get("reached") or reached:
+        arm_pos_err, arm_ori_err = self._fk_err(q_measured, goal)
+        reached = self._reached(pos_err, ori_err, goal) and self._reached(arm_pos_err, arm_ori_err, goal)
+        if reached:
             reason = "reached"
         elif accepted:
             reason = "tracking"
@@ -394,4 +398,5 @@ class AmpLs:
             p_collision=float(ev["p_col"][b]) if "p_col" in ev else 0.0,
             reason=reason,
             losses=dict(s.last_losses),
+            arm_pos_err_m=arm_pos_err,
         )

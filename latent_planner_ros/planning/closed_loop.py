@@ -248,17 +248,19 @@ class ClosedLoopController:
             accepted_steps=cfg.accepted_steps_per_tick,
         )
         tick_ms = (time.perf_counter() - t0) * 1000.0
+        err = out.pos_err_m if out.arm_pos_err_m is None else out.arm_pos_err_m  # progress of the arm itself
         values = {
             "pos_err_m": out.pos_err_m,
+            "arm_pos_err_m": err,
             "ori_err_deg": float(np.degrees(out.ori_err_rad)),
             "p_collision": out.p_collision,
             "tick_ms": tick_ms,
             **out.losses,
         }
         moved = self._best_goal is not None and np.linalg.norm(self.goal.position - self._best_goal) > cfg.progress_m
-        if out.reached or moved or out.pos_err_m < self._best_err - cfg.progress_m:
+        if out.reached or moved or err < self._best_err - cfg.progress_m:
             # progress, or within tolerance, or the goal moved on (a tracked target): the watchdog restarts
-            self._best_err, self._best_time, self._best_goal = out.pos_err_m, now, self.goal.position.copy()
+            self._best_err, self._best_time, self._best_goal = err, now, self.goal.position.copy()
         elif not out.reached and now - self._best_time > cfg.no_progress_s:
             self._failed = (
                 f"goal not reached: no progress for {cfg.no_progress_s:.0f} s "

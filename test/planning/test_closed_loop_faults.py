@@ -52,7 +52,7 @@ class _StuckPlanner:
     def reset(self) -> None:
         pass
 
-    def step(self, q, goal, scene, dt, max_iterations, budget_s=None):
+    def step(self, q, goal, scene, dt, max_iterations, budget_s=None, accepted_steps=1):
         return StepResult(np.asarray(q), True, False, 0.1, 0.0, 0.0, "tracking", {})
 
 

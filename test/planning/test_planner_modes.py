@@ -25,7 +25,7 @@ class _Planner:
     def reset(self) -> None:
         self.resets += 1
 
-    def step(self, q, goal, scene, dt, max_iterations, budget_s=None):
+    def step(self, q, goal, scene, dt, max_iterations, budget_s=None, accepted_steps=1):
         self.steps.append((goal.position.copy(), scene))
         return StepResult(np.asarray(q), True, False, 1.0 - 0.01 * len(self.steps), 0.0, 0.0, "tracking", {})
 
