@@ -186,8 +186,7 @@ def missed_ticks(command_t: np.ndarray, period_s: float, duration_s: float) -> i
     missed), plus whole periods before the first and after the last beyond half a period of timer jitter (a
     window edge falls anywhere between two ticks).
     """
-    c = np.unique(np.asarray(command_t, dtype=float))
-    c = c[(c >= 0.0) & (c <= duration_s)]
+    c = _in_window(command_t, duration_s)
     if len(c) == 0:
         return int(np.floor(duration_s / period_s + 1e-9))
     expected = int(np.floor((c[-1] - c[0]) / period_s + 0.5)) + 1
@@ -200,9 +199,14 @@ def missed_ticks(command_t: np.ndarray, period_s: float, duration_s: float) -> i
 def longest_command_gap(command_t: np.ndarray, duration_s: float) -> float | None:
     """The longest time [s] between consecutive joint_commands of the trial window [0, duration_s] (None with
     fewer than two)."""
-    c = np.unique(np.asarray(command_t, dtype=float))
-    c = c[(c >= 0.0) & (c <= duration_s)]
+    c = _in_window(command_t, duration_s)
     return float(np.diff(c).max()) if len(c) >= 2 else None
+
+
+def _in_window(command_t: np.ndarray, duration_s: float) -> np.ndarray:
+    """The distinct command stamps [s] inside the trial window [0, duration_s], sorted."""
+    c = np.unique(np.asarray(command_t, dtype=float))
+    return c[(c >= 0.0) & (c <= duration_s)]
 
 
 def _opt(value) -> float | None:
