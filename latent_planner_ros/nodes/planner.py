@@ -195,7 +195,7 @@ class PlannerNode(Node):
             return
         if hasattr(backend, "set_cloud"):  # learned: the raw cloud feeds the hard check of each step
             backend.set_cloud(cloud)
-        controller.set_cloud(cloud)
+        controller.set_cloud(cloud, received)
 
     def _on_embedding(self, msg: PointCloud2) -> None:
         try:

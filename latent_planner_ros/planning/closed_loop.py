@@ -15,8 +15,9 @@ from typing import Any
 import numpy as np
 
 from latent_planner_ros.planning.amp_ls import AmpLs
+from latent_planner_ros.planning.evasion import Evader
 from latent_planner_ros.planning.goal import Goal
-from latent_planner_ros.robot.limits import JOINT_NAMES, Q_MAX, Q_MIN
+from latent_planner_ros.robot.limits import JOINT_NAMES, Q_MAX, Q_MIN, V_MAX
 
 OK, WARN, ERROR = 0, 1, 2
 
@@ -60,6 +61,13 @@ class ClosedLoopConfig:
     goal as received (a still goal is chased as it is either way)"""
     goal_lead_max_m: float = 0.1
     """[m] longest lead (a cap on velocity x goal_lead_s)"""
+    evade_margin_m: float = 0.05
+    """[m] when no step is accepted in a tick, the arm's least sphere clearance to the observed cloud is below
+    this and the cloud approaches the arm faster than evade_approach_mps, the arm retreats from the nearest
+    points instead of holding (planning/evasion.py); 0 = always hold"""
+    evade_approach_mps: float = 0.02
+    """[m/s] approach speed of the observed cloud (its clearance to the held arm, over about 0.3 s) that counts
+    as an obstacle moving towards the arm"""
 
     def __post_init__(self) -> None:
         positive = ("rate_hz", "stale_joint_states_s", "stale_scene_s", "no_progress_s", "progress_m", "reach_m")
@@ -71,7 +79,7 @@ class ClosedLoopConfig:
             v = getattr(self, name)
             if not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 100):
                 raise ValueError(f"{name} must be an integer in [1, 100], got {v!r}")
-        for name in ("goal_clearance_m", "goal_lead_s", "goal_lead_max_m"):
+        for name in ("goal_clearance_m", "goal_lead_s", "goal_lead_max_m", "evade_margin_m", "evade_approach_mps"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
@@ -83,7 +91,7 @@ class TickOutcome:
 
     Attributes:
         command: (7,) joint target to publish [rad], or None to publish nothing.
-        state: "tracking", "reached", "holding", "failed", "disabled".
+        state: "tracking", "reached", "evading", "holding", "failed", "disabled".
         reason: human-readable explanation.
         level: OK, WARN or ERROR (diagnostic level).
         values: figures for the status topic.
@@ -114,6 +122,8 @@ class ClosedLoopController:
         self._best_time = 0.0
         self._best_goal: np.ndarray | None = None
         self._goal_track: deque[tuple[float, np.ndarray]] = deque()  # (time [s], position (3,) [m]) of goals
+        checker = getattr(planner, "checker", None)
+        self._evader = Evader(self.config.evade_margin_m, checker=checker) if self.config.evade_margin_m > 0 else None
 
     # -- inputs ----------------------------------------------------------------------------------
     def set_joint_state(self, q: np.ndarray, now: float) -> tuple[bool, str]:
@@ -131,11 +141,14 @@ class ClosedLoopController:
         """The scene as the planner's collision backend consumes it, and the raw cloud if known."""
         self._scene, self._scene_time = scene, now
         if cloud is not None:
-            self.set_cloud(cloud)
+            self.set_cloud(cloud, now)
 
-    def set_cloud(self, cloud: np.ndarray) -> None:
-        """The latest raw cloud (N, 3) [m], used to refuse goals inside observed obstacles."""
+    def set_cloud(self, cloud: np.ndarray, now: float | None = None) -> None:
+        """The latest raw cloud (N, 3) [m] (finite points), used to refuse goals inside observed obstacles and,
+        with its time now [s], to notice obstacles approaching a holding arm (evade_margin_m)."""
         self._cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
+        if now is not None and self._evader is not None:
+            self._evader.add_cloud(self._cloud, now)
 
     def check_goal(self, goal: Goal, check_cloud: bool = True) -> tuple[bool, str]:
         """(False, reason) for a goal out of reach or (check_cloud) inside an observed obstacle, else (True, "")."""
@@ -267,5 +280,24 @@ class ClosedLoopController:
                 f"(best error {self._best_err * 1000:.0f} mm); holding until a new goal or enable"
             )
             return TickOutcome(hold, "failed", self._failed, ERROR, values)
+        if not out.accepted and self._evader is not None:
+            evasion = self._evasion(now, values)
+            if evasion is not None:
+                return evasion
         state = "reached" if out.reached else "tracking"
         return TickOutcome(out.command, state, out.reason, OK, values)
+
+    def _evasion(self, now: float, values: dict[str, Any]) -> TickOutcome | None:
+        """A retreat from an observed obstacle approaching the holding arm, or None (see evade_margin_m)."""
+        cfg = self.config
+        clearance, speed = self._evader.threat(self._q)
+        values.update(clearance_m=clearance, approach_mps=speed)
+        if clearance >= cfg.evade_margin_m or speed < cfg.evade_approach_mps:
+            return None
+        q_new = self._evader.retreat(self._q, self.planner.config.speed_scale * V_MAX / cfg.rate_hz)
+        if q_new is None:
+            return None
+        self.planner.reset()  # re-encode where the arm went, with fresh loss weights
+        self._best_time = now  # a forced retreat is not a lack of progress
+        reason = f"evading: an observed obstacle approaches at {speed * 100:.0f} cm/s, {clearance * 100:.1f} cm away"
+        return TickOutcome(q_new, "evading", reason, WARN, values)
