@@ -62,9 +62,10 @@ class ClosedLoopConfig:
     goal_lead_max_m: float = 0.1
     """[m] longest lead (a cap on velocity x goal_lead_s)"""
     evade_margin_m: float = 0.05
-    """[m] when no step is accepted in a tick, the arm's least sphere clearance to the observed cloud is below
-    this and the cloud approaches the arm faster than evade_approach_mps, the arm retreats from the nearest
-    points instead of holding (planning/evasion.py); 0 = always hold"""
+    """[m] when no step is accepted in a tick (or the arm holds for want of a goal or after a failure, with a
+    cloud at most stale_scene_s old), the arm's least sphere clearance to the observed cloud is below this and
+    the cloud approaches the arm faster than evade_approach_mps, the arm retreats from the nearest points instead
+    of holding (planning/evasion.py); 0 = always hold"""
     evade_approach_mps: float = 0.02
     """[m/s] approach speed of the observed cloud (its clearance to the held arm, over about 0.3 s) that counts
     as an obstacle moving towards the arm"""
@@ -242,9 +243,9 @@ class ClosedLoopController:
             return TickOutcome(None, "holding", f"no command: joint states {age}", ERROR)
         hold = np.clip(self._q, Q_MIN, Q_MAX)
         if self.goal is None:
-            return TickOutcome(hold, "holding", "holding: no goal")
+            return self._evasion(now, {}, fresh_cloud=True) or TickOutcome(hold, "holding", "holding: no goal")
         if self._failed is not None:
-            return TickOutcome(hold, "failed", self._failed, ERROR)
+            return self._evasion(now, {}, fresh_cloud=True) or TickOutcome(hold, "failed", self._failed, ERROR)
         use_scene = self.planner.config.use_collision
         if use_scene and (self._scene is None or now - self._scene_time > cfg.stale_scene_s):
             age = "never received" if self._scene is None else f"{now - self._scene_time:.2f} s old"
@@ -280,16 +281,19 @@ class ClosedLoopController:
                 f"(best error {self._best_err * 1000:.0f} mm); holding until a new goal or enable"
             )
             return TickOutcome(hold, "failed", self._failed, ERROR, values)
-        if not out.accepted and self._evader is not None:
+        if not out.accepted:
             evasion = self._evasion(now, values)
             if evasion is not None:
                 return evasion
         state = "reached" if out.reached else "tracking"
         return TickOutcome(out.command, state, out.reason, OK, values)
 
-    def _evasion(self, now: float, values: dict[str, Any]) -> TickOutcome | None:
-        """A retreat from an observed obstacle approaching the holding arm, or None (see evade_margin_m)."""
+    def _evasion(self, now: float, values: dict[str, Any], fresh_cloud: bool = False) -> TickOutcome | None:
+        """A retreat from an observed obstacle approaching the holding arm, or None (see evade_margin_m); with
+        fresh_cloud, only when the newest cloud is at most stale_scene_s old (holds without planning)."""
         cfg = self.config
+        if self._evader is None or (fresh_cloud and now - self._evader.newest_time > cfg.stale_scene_s):
+            return None
         clearance, speed = self._evader.threat(self._q)
         values.update(clearance_m=clearance, approach_mps=speed)
         if clearance >= cfg.evade_margin_m or speed < cfg.evade_approach_mps:

@@ -57,6 +57,11 @@ class Evader:
         """Forget the clouds seen so far."""
         self._clouds.clear()
 
+    @property
+    def newest_time(self) -> float:
+        """Time [s] of the newest cloud (-inf before any)."""
+        return self._clouds[-1][0] if self._clouds else -np.inf
+
     def add_cloud(self, cloud: np.ndarray, now: float) -> None:
         """The observed cloud (N, 3) [m] at time now [s] (finite points, robot removed)."""
         if self._clouds and now < self._clouds[-1][0]:  # the clock went back: start afresh

@@ -66,13 +66,13 @@ class _BlockedPlanner:
         return StepResult(np.asarray(q), False, False, 0.5, 0.0, 0.0, "backtraced: interpolated step collides", {})
 
 
-def _run(c: ClosedLoopController, walls: list[float]):
+def _run(c: ClosedLoopController, walls: list[float], goal: bool = True):
     out = None
     for k, y in enumerate(walls):
         now = 0.1 * k
         c.set_joint_state(Q_READY, now)
         c.set_scene(_wall(y), now, cloud=_wall(y))
-        if c.goal is None:
+        if c.goal is None and goal:
             assert c.set_goal(Goal(TCP + np.array([0.0, 0.4, 0.0]), np.eye(3)), now)[0]
         out = c.tick(now)
     return out
@@ -88,3 +88,15 @@ def test_a_holding_arm_retreats_from_an_approaching_obstacle_and_holds_near_a_st
     assert still.state == "tracking" and np.array_equal(still.command, Q_READY)
     off = _run(ClosedLoopController(_BlockedPlanner(), ClosedLoopConfig(evade_margin_m=0.0)), [0.21, 0.19, 0.17])
     assert off.state == "tracking" and np.array_equal(off.command, Q_READY)
+
+
+def test_an_arm_holding_without_a_goal_evades_too_but_not_on_a_stale_cloud():
+    c = ClosedLoopController(_BlockedPlanner(), ClosedLoopConfig())
+    approaching = [0.21, 0.2, 0.19, 0.18, 0.17]
+    out = _run(c, approaching, goal=False)
+    assert out.state == "evading" and not np.allclose(out.command, Q_READY)
+    stale = ClosedLoopController(_BlockedPlanner(), ClosedLoopConfig(stale_scene_s=0.5))
+    _run(stale, approaching, goal=False)
+    stale.set_joint_state(Q_READY, 1.1)  # the last cloud is 0.7 s old
+    out = stale.tick(1.1)
+    assert out.state == "holding" and "no goal" in out.reason and np.array_equal(out.command, Q_READY)
