@@ -62,10 +62,10 @@ class ClosedLoopConfig:
     goal_lead_max_m: float = 0.1
     """[m] longest lead (a cap on velocity x goal_lead_s)"""
     evade_margin_m: float = 0.05
-    """[m] when no step is accepted in a tick (or the arm holds for want of a goal or after a failure, with a
-    cloud at most stale_scene_s old), the arm's least sphere clearance to the observed cloud is below this and
-    the cloud approaches the arm faster than evade_approach_mps, the arm retreats from the nearest points instead
-    of holding (planning/evasion.py); 0 = always hold"""
+    """[m] when the arm's least sphere clearance to the observed cloud is below this, the cloud approaches the
+    arm faster than evade_approach_mps and the tick's command would not gain clearance (a hold: no step accepted,
+    no goal or a failure, with a cloud at most stale_scene_s old; or a step that does not move away), the arm
+    retreats from the nearest points instead (planning/evasion.py); 0 = never"""
     evade_approach_mps: float = 0.02
     """[m/s] approach speed of the observed cloud (its clearance to the held arm, over about 0.3 s) that counts
     as an obstacle moving towards the arm"""
@@ -281,22 +281,26 @@ class ClosedLoopController:
                 f"(best error {self._best_err * 1000:.0f} mm); holding until a new goal or enable"
             )
             return TickOutcome(hold, "failed", self._failed, ERROR, values)
-        if not out.accepted:
-            evasion = self._evasion(now, values)
-            if evasion is not None:
-                return evasion
+        evasion = self._evasion(now, values, command=out.command if out.accepted else None)
+        if evasion is not None:
+            return evasion
         state = "reached" if out.reached else "tracking"
         return TickOutcome(out.command, state, out.reason, OK, values)
 
-    def _evasion(self, now: float, values: dict[str, Any], fresh_cloud: bool = False) -> TickOutcome | None:
-        """A retreat from an observed obstacle approaching the holding arm, or None (see evade_margin_m); with
-        fresh_cloud, only when the newest cloud is at most stale_scene_s old (holds without planning)."""
+    def _evasion(
+        self, now: float, values: dict[str, Any], fresh_cloud: bool = False, command: np.ndarray | None = None
+    ) -> TickOutcome | None:
+        """A retreat from an observed obstacle approaching the arm, or None (see evade_margin_m). command (7,)
+        [rad]: the planner's step, kept when it gains clearance itself; with fresh_cloud, only when the newest cloud
+        is at most stale_scene_s old (holds without planning)."""
         cfg = self.config
         if self._evader is None or (fresh_cloud and now - self._evader.newest_time > cfg.stale_scene_s):
             return None
         clearance, speed = self._evader.threat(self._q)
         values.update(clearance_m=clearance, approach_mps=speed)
         if clearance >= cfg.evade_margin_m or speed < cfg.evade_approach_mps:
+            return None
+        if command is not None and self._evader.least_clearance(command) > clearance:
             return None
         q_new = self._evader.retreat(self._q, self.planner.config.speed_scale * V_MAX / cfg.rate_hz)
         if q_new is None:

@@ -100,3 +100,24 @@ def test_an_arm_holding_without_a_goal_evades_too_but_not_on_a_stale_cloud():
     stale.set_joint_state(Q_READY, 1.1)  # the last cloud is 0.7 s old
     out = stale.tick(1.1)
     assert out.state == "holding" and "no goal" in out.reason and np.array_equal(out.command, Q_READY)
+
+
+class _StepPlanner(_BlockedPlanner):
+    """A planner whose every step is accepted and moves the arm by dq (7,) [rad]."""
+
+    def __init__(self, dq: np.ndarray):
+        self.dq = dq
+
+    def step(self, q, goal, scene, dt, max_iterations, budget_s=None, accepted_steps=1):
+        return StepResult(np.asarray(q) + self.dq, True, False, 0.5, 0.0, 0.0, "tracking", {})
+
+
+def test_an_accepted_step_is_replaced_by_a_retreat_only_when_it_does_not_gain_clearance():
+    approaching = [0.21, 0.2, 0.19, 0.18, 0.17]
+    towards = np.array([0.05, 0, 0, 0, 0, 0, 0])  # joint 1 turns the hand towards the wall at +y
+    wall = _evader_with([(0.0, _wall(0.17))])
+    assert wall.least_clearance(Q_READY + towards) < wall.least_clearance(Q_READY)
+    out = _run(ClosedLoopController(_StepPlanner(towards), ClosedLoopConfig()), approaching)
+    assert out.state == "evading" and load_panda().fk(out.command).translation[1] < TCP[1]
+    out = _run(ClosedLoopController(_StepPlanner(-towards), ClosedLoopConfig()), approaching)
+    assert out.state == "tracking" and np.allclose(out.command, Q_READY - towards)
