@@ -2,8 +2,9 @@
 
 AMP-LS sees one static scene per tick. When every step towards the goal would cross an obstacle that drives
 at the arm (the conveyor bench: the target wraps to the far end of the belt, behind an oncoming obstacle), each
-step is back-traced, the arm holds, and the obstacle runs into it. This module notices the approach in the
-cloud's motion and computes a retreat:
+step is back-traced, the arm holds, and the obstacle runs into it; a step that passes the check against this
+tick's cloud may still close in on it. This module notices the approach in the cloud's motion and computes a
+retreat (ClosedLoopController uses it when the tick's command would not gain clearance):
 
 - threat: the least clearance [m] of the arm's spheres (robot.spheres) to the observed cloud at the measured
   configuration, in the newest cloud and in one about `window_s` older; the arm's own motion does not enter,
