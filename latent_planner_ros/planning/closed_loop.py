@@ -146,7 +146,7 @@ class ClosedLoopController:
 
     def set_cloud(self, cloud: np.ndarray, now: float | None = None) -> None:
         """The latest raw cloud (N, 3) [m] (finite points), used to refuse goals inside observed obstacles and,
-        with its time now [s], to notice obstacles approaching a holding arm (evade_margin_m)."""
+        with its time now [s], to notice obstacles approaching the arm (evade_margin_m)."""
         self._cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
         if now is not None and self._evader is not None:
             self._evader.add_cloud(self._cloud, now)

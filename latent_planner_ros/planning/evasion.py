@@ -1,4 +1,4 @@
-"""Evasion of observed obstacles that move towards a holding arm (beyond the seed).
+"""Evasion of observed obstacles that move towards the arm (beyond the seed).
 
 AMP-LS sees one static scene per tick. When every step towards the goal would cross an obstacle that drives
 at the arm (the conveyor bench: the target wraps to the far end of the belt, behind an oncoming obstacle), each
@@ -53,10 +53,6 @@ class Evader:
         self._fk = TorchFK(dtype=torch.float64)
         self._checker = checker or CollisionChecker()
         self._clouds: deque[tuple[float, cKDTree | None]] = deque()
-
-    def reset(self) -> None:
-        """Forget the clouds seen so far."""
-        self._clouds.clear()
 
     @property
     def newest_time(self) -> float:
