@@ -45,11 +45,10 @@ class Evader:
     def __init__(self, margin_m: float, window_s: float = 0.3, checker: CollisionChecker | None = None):
         self.margin = float(margin_m)
         self.window = float(window_s)
-        spheres = panda_spheres()
-        moving = spheres.link != LINK_FRAMES.index("panda_link0")  # the base stands on the table
-        self._link = torch.as_tensor(spheres.link[moving])
-        self._centre = torch.as_tensor(spheres.centre[moving], dtype=torch.float64)
-        self._radius = spheres.radius[moving]
+        self._spheres = panda_spheres()
+        moving = self._spheres.link != LINK_FRAMES.index("panda_link0")  # the base stands on the table
+        self._moving = torch.as_tensor(np.flatnonzero(moving))
+        self._radius = self._spheres.radius[moving]
         self._fk = TorchFK(dtype=torch.float64)
         self._checker = checker or CollisionChecker()
         self._clouds: deque[tuple[float, cKDTree | None]] = deque()
@@ -70,8 +69,7 @@ class Evader:
 
     def _centres(self, q: torch.Tensor) -> torch.Tensor:
         """Sphere centres (S, 3) [m] of configuration q (7,)."""
-        t = self._fk(q)[self._link]
-        return (t[:, :3, :3] @ self._centre.unsqueeze(-1)).squeeze(-1) + t[:, :3, 3]
+        return self._spheres.centres_world(self._fk(q))[self._moving]
 
     def _nearest(self, centres: np.ndarray, tree: cKDTree | None) -> tuple[np.ndarray, np.ndarray]:
         """Clearance (S,) [m] (capped at HORIZON_M) and nearest observed point (S, 3) of every sphere."""
