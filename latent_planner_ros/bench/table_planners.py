@@ -48,6 +48,15 @@ AMP_LS_VARIANTS: dict[str, AmpLsVariant] = {
     "amp_ls_no_self_check": AmpLsVariant(
         "beyond the seed off: no exact self/table check of interpolated steps", {"self_check": False}
     ),
+    "amp_ls_eager_check": AmpLsVariant(
+        "beyond the seed off: every accepted step checked as it is accepted (the seed), not lazily",
+        {"lazy_check": False},
+    ),
+    "amp_ls_no_finish": AmpLsVariant(
+        "beyond the seed off: no exact IK finish, the latent optimisation reaches alone", {"finish_radius_m": 0.0}
+    ),
+    "amp_ls_no_shortcut": AmpLsVariant("beyond the seed off: no shortcutting of the path", {"shortcut": False}),
+    "amp_ls_seed_lr": AmpLsVariant("the closed loop's step size (lr 0.06) for plans too", {"plan_lr": 0.06}),
 }
 """AMP-LS rows of the table, in order."""
 

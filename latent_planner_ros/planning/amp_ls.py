@@ -26,10 +26,13 @@ from latent_planner_ros.models.vae import RobotStateVAE
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.collision_backend import CollisionBackend
 from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.ik import IkConfig, solve_ik
 from latent_planner_ros.planning.result import PlanResult
+from latent_planner_ros.planning.shortcut import shortcut
 from latent_planner_ros.planning.time_parameterisation import interpolate, time_parameterise
 from latent_planner_ros.robot.collision import CollisionChecker
 from latent_planner_ros.robot.limits import Q_MAX, Q_MIN, Q_READY, V_MAX
+from latent_planner_ros.robot.panda import load_panda
 from latent_planner_ros.robot.rotations import matrix_to_quat, matrix_to_rot6d, rot6d_to_matrix, rotation_angle_between
 from latent_planner_ros.robot.state import robot_state
 from latent_planner_ros.robot.torch_fk import TorchFK
@@ -65,8 +68,9 @@ class StepResult:
 class _Search:
     """Optimisation state of a batch of latent seeds."""
 
-    def __init__(self, planner: AmpLs, start_q: np.ndarray, n_seeds: int | None = None):
+    def __init__(self, planner: AmpLs, start_q: np.ndarray, n_seeds: int | None = None, lr: float | None = None):
         cfg = planner.config
+        lr = cfg.lr if lr is None else lr
         b = cfg.n_seeds if n_seeds is None else n_seeds
         with torch.no_grad():
             z0 = planner.vae.encode_q(torch.as_tensor(start_q, dtype=torch.float32)[None])
@@ -74,18 +78,22 @@ class _Search:
         if b > 1:
             z[1:] += cfg.seed_noise * torch.randn(b - 1, z.shape[1], generator=planner.generator)
         self.z = torch.nn.Parameter(z)
-        self.opt = (
-            torch.optim.Adam([self.z], lr=cfg.lr) if cfg.optimizer == "adam" else torch.optim.SGD([self.z], lr=cfg.lr)
-        )
+        self.opt = torch.optim.Adam([self.z], lr=lr) if cfg.optimizer == "adam" else torch.optim.SGD([self.z], lr=lr)
         self.z_prev = self.z.detach().clone()
         self.q_prev = np.repeat(np.asarray(start_q, dtype=float)[None], b, axis=0)
         self.q_command = np.asarray(start_q, dtype=float).copy()
         self.paths: list[list[np.ndarray]] = [[np.asarray(start_q, dtype=float)[None]] for _ in range(b)]
+        # lazy checking (open loop, lazy_check): accepted states not yet hard-checked, as (q (7,), z (L,)),
+        # after the last checked state q_ok / z_ok of each seed; q_prev / z_prev are then the last accepted one
+        self.pending: list[list[tuple[np.ndarray, torch.Tensor]]] = [[] for _ in range(b)]
+        self.q_ok = self.q_prev.copy()
+        self.z_ok = self.z_prev.clone()
         geco = dict(alpha_ma=cfg.geco_alpha_ma, lambda_min=cfg.lambda_min, lambda_max=cfg.lambda_max)
         # lambda_target scales lambda_pos and lambda_ori together
         self.target = Geco(GecoConfig(tau=-cfg.tau_prior, step=cfg.geco_step_target, lambda_init=1.0, **geco), (b,))
         self.col = Geco(GecoConfig(tau=cfg.tau_col, step=cfg.geco_step_col, lambda_init=cfg.lambda_col, **geco), (b,))
         self.best_err = np.full(b, np.inf)
+        self.finish_tried = np.full(b, -(10**9))  # iteration of each seed's last exact-finish attempt
         self.last_improved = np.zeros(b, dtype=int)
         self.iteration = 0
         self.backtraces = 0
@@ -114,6 +122,8 @@ class AmpLs:
         self.generator = torch.Generator().manual_seed(seed)
         self.fk64 = TorchFK(dtype=torch.float64)
         self.checker = CollisionChecker()
+        self.panda = load_panda()
+        self.finish_ik = IkConfig(max_iters=30, max_step_rad=0.2)
         self._search: _Search | None = None
 
     # -- shared pieces -----------------------------------------------------------------------------
@@ -134,14 +144,28 @@ class AmpLs:
     def _reached(self, pos_err: float, ori_err: float, goal: Goal) -> bool:
         return pos_err < goal.pos_tol and (ori_err < goal.ori_tol or not self.config.use_orientation)
 
-    def _iterate(self, s: _Search, goal: Goal, accept: bool, force_col: bool = True) -> dict:
-        """One iteration of Algorithm 1 for every seed; returns what happened."""
+    def _iterate(self, s: _Search, goal: Goal, accept: bool, lazy: bool = False) -> dict:
+        """One iteration of Algorithm 1 for every seed; returns what happened.
+
+        lazy: accepted steps are hard-checked only when a seed reaches the goal (`_verify`), not one by one.
+        """
         cfg = self.config
         events = {"accepted": [], "reached": [], "backtraced": [], "rejected": []}
         q, pos, ori = self._pose(s.z)
         p_col = self.backend.p_collision(q, s.z) if cfg.use_collision else torch.zeros(len(q))
         pos_err, ori_err = self._errors(pos, ori, goal)
-        if accept:
+        if accept and lazy:
+            q_np, p_np = q.detach().double().numpy(), p_col.detach().numpy()
+            rejected = cfg.use_collision & (p_np >= cfg.col_threshold)
+            events["rejected"] = [int(b) for b in np.flatnonzero(rejected)]
+            self._accept_lazily(s, goal, np.flatnonzero(~rejected), q_np, pos_err, ori_err, events)
+            if events["reached"]:
+                events["pos_err"], events["ori_err"], events["p_col"] = pos_err, ori_err, p_col.detach().numpy()
+                return events
+            if events["backtraced"]:
+                q, pos, ori = self._pose(s.z)
+                p_col = self.backend.p_collision(q, s.z) if cfg.use_collision else torch.zeros(len(q))
+        elif accept:
             q_np, p_np = q.detach().double().numpy(), p_col.detach().numpy()
             rejected = cfg.use_collision & (p_np >= cfg.col_threshold)
             events["rejected"] = [int(b) for b in np.flatnonzero(rejected)]
@@ -202,6 +226,91 @@ class AmpLs:
         events["pos_err"], events["ori_err"], events["p_col"] = pos_err, ori_err, p_col.detach().numpy()
         return events
 
+    def _accept_lazily(self, s: _Search, goal: Goal, candidates, q_np, pos_err, ori_err, events) -> None:
+        """Accept the decoded states q_np[candidates] unchecked; check the seeds that reach the goal (one batch)
+        and back-trace those whose steps collide."""
+        due = []
+        for b in (int(b) for b in candidates):
+            s.pending[b].append((q_np[b].copy(), s.z[b].detach().clone()))
+            s.q_prev[b] = q_np[b]
+            with torch.no_grad():
+                s.z_prev[b] = s.z[b]
+            if self._reached(pos_err[b], ori_err[b], goal):
+                due.append(b)
+        hit = set(self._verify(s, due))
+        for b in (int(b) for b in candidates):
+            if b in hit:
+                events["backtraced"].append(b)
+                continue
+            events["accepted"].append(b)
+            if self._reached(pos_err[b], ori_err[b], goal):
+                events["reached"].append(b)
+
+    def _verify(self, s: _Search, seeds: list[int]) -> list[int]:
+        """Hard-check the unchecked steps of `seeds` in one batch. A free chain joins the path; a colliding one
+        joins it up to the step that collides, and the seed back-traces to the state before that step (its
+        target weights scaled by i/m, as in Algorithm 1). Returns the seeds that back-traced."""
+        chains = {}
+        for b in seeds:
+            vertices = [s.q_ok[b]] + [q for q, _ in s.pending[b]]
+            chains[b] = [
+                interpolate(a, c, self._n_checks(a, c)) for a, c in zip(vertices[:-1], vertices[1:], strict=True)
+            ]
+        hits = iter(self._check_segments([seg for b in seeds for seg in chains[b]]))
+        backtraced = []
+        for b in seeds:
+            chain = chains[b]
+            chain_hits = [next(hits) for _ in chain]
+            bad = [k for k, h in enumerate(chain_hits) if h.any()]
+            j = bad[0] if bad else len(chain)
+            s.paths[b].extend(chain[:j])
+            if j > 0:
+                s.q_ok[b], s.z_ok[b] = s.pending[b][j - 1][0], s.pending[b][j - 1][1]
+            s.pending[b] = []
+            if not bad:
+                continue
+            i = int(np.argmax(chain_hits[j])) + 1
+            s.target.scale(np.where(np.arange(len(s.q_prev)) == b, i / len(chain[j]), 1.0))
+            s.q_prev[b] = s.q_ok[b]
+            with torch.no_grad():
+                s.z_prev[b] = s.z_ok[b]
+                s.z[b] = s.z_ok[b]
+            s.backtraces += 1
+            backtraced.append(b)
+        return backtraced
+
+    def _finish(self, s: _Search, goal: Goal, ev: dict) -> int | None:
+        """Exact finish (beyond the seed): the seed accepted this iteration that is nearest the goal, once its
+        TCP is within finish_radius_m / finish_angle_deg, takes a damped-least-squares IK step chain from its
+        accepted state to the goal pose; the straight segment to the solution is hard-checked like an accepted
+        step (lazily, with the seed's unchecked steps). Returns the seed that reached the goal, or None."""
+        cfg = self.config
+        near = [
+            b
+            for b in ev["accepted"]
+            if ev["pos_err"][b] < cfg.finish_radius_m
+            and ev["ori_err"][b] < np.radians(cfg.finish_angle_deg)
+            and s.iteration - s.finish_tried[b] >= cfg.finish_every
+        ]
+        if not near:
+            return None
+        b = min(near, key=lambda i: float(ev["pos_err"][i]))
+        s.finish_tried[b] = s.iteration
+        sol = solve_ik(self.panda, goal, s.q_prev[b], self.finish_ik)
+        if not sol.converged or np.abs(sol.q - s.q_prev[b]).max() > cfg.finish_max_rad:
+            return None
+        seg = interpolate(s.q_prev[b], sol.q, self._n_checks(s.q_prev[b], sol.q))
+        if self._check_segments([seg])[0].any():
+            return None
+        if cfg.lazy_check:
+            s.pending[b].append((sol.q, s.z_prev[b].detach().clone()))
+            if self._verify(s, [b]):
+                return None
+        else:
+            s.paths[b].append(seg)
+        s.q_prev[b] = sol.q
+        return b
+
     def _direct_target(self, q_from: np.ndarray, q_last: np.ndarray, q_first: np.ndarray) -> np.ndarray:
         """The state to command from q_from (7,) [rad]: q_last when the straight segment to it passes the hard
         check (no check needed when it is q_first, whose segment was checked), else q_first."""
@@ -220,13 +329,16 @@ class AmpLs:
             raise ValueError(f"start_q must be 7 finite joint positions, got {start_q!r}")
         if cfg.use_collision:
             self.backend.set_scene(np.zeros((0, 3)) if cloud is None else cloud)
-        s = _Search(self, start_q)
+        s = _Search(self, start_q, lr=cfg.plan_lr)
         t_setup = time.perf_counter() - t0
         reason, winner = "step budget exhausted", None
         for t in range(cfg.max_steps):
-            ev = self._iterate(s, goal, accept=t > 0)
+            ev = self._iterate(s, goal, accept=t > 0, lazy=cfg.lazy_check)
             if ev["reached"]:
                 winner, reason = ev["reached"][0], "reached"
+                break
+            if cfg.finish_radius_m > 0 and t > 0 and (b := self._finish(s, goal, ev)) is not None:
+                winner, reason = b, "reached"
                 break
             err = ev["pos_err"]
             improved = err < s.best_err - 0.002
@@ -240,9 +352,24 @@ class AmpLs:
                 reason = "no progress"
                 break
         if winner is None:
+            self._verify(s, [b for b in range(len(s.paths)) if s.pending[b]])
             ends = np.array([self._fk_err(p[-1][-1], goal)[0] for p in s.paths])
             winner = int(np.argmin(ends))
-        return self._result(s, winner, goal, reason, time.perf_counter() - t0, t_setup)
+        q_path = np.concatenate(s.paths[winner])
+        if cfg.shortcut and reason == "reached":
+            q_path = self._shortcut(s.paths[winner])
+        return self._result(s, q_path, winner, goal, reason, time.perf_counter() - t0, t_setup)
+
+    def _shortcut(self, path: list[np.ndarray]) -> np.ndarray:
+        """The checked chain `path` (segments, each ending at an accepted state) shortened by `shortcut`, densified
+        at the check resolution: (T, 7) [rad]."""
+        vertices = np.stack([seg[-1] for seg in path])
+        kept = shortcut(vertices, lambda a, b: interpolate(a, b, self._n_checks(a, b)), self._check_segments)
+        segs = [vertices[:1]] + [
+            interpolate(vertices[a], vertices[b], self._n_checks(vertices[a], vertices[b]))
+            for a, b in zip(kept[:-1], kept[1:], strict=True)
+        ]
+        return np.concatenate(segs)
 
     def _n_checks(self, q_from: np.ndarray, q_to: np.ndarray) -> int:
         """m, the states checked on a step: interp_steps, or (check_step_rad > 0) one per check_step_rad [rad]."""
@@ -256,9 +383,11 @@ class AmpLs:
             return []
         states = np.concatenate(segs)
         hits = self.backend.check(states) if self.config.use_collision else np.zeros(len(states), dtype=bool)
-        if self.config.self_check:
-            hits |= ~self.checker.feasible(states)
-        return np.split(hits, np.cumsum([len(seg) for seg in segs])[:-1])
+        ends = np.cumsum([len(seg) for seg in segs])[:-1]
+        if self.config.self_check:  # only the states before each segment's first hit matter
+            todo = np.concatenate([np.cumsum(h) == 0 for h in np.split(hits, ends)])
+            hits[todo] |= ~self.checker.feasible(states[todo])
+        return np.split(hits, ends)
 
     def _restart(self, s: _Search, b: int, t: int) -> None:
         """Move stalled seed b to the best seed's last accepted state, with a latent kick (open loop)."""
@@ -273,6 +402,10 @@ class AmpLs:
                     v[b] = 0.0
         s.q_prev[b] = s.q_prev[best]
         s.paths[b] = list(s.paths[best])
+        s.pending[b] = list(s.pending[best])
+        s.q_ok[b] = s.q_ok[best]
+        with torch.no_grad():
+            s.z_ok[b] = s.z_ok[best]
         for geco in (s.target, s.col):  # the best seed's multipliers
             geco.log_lambda[b] = geco.log_lambda[best]
             if geco.c_ma is not None:
@@ -286,8 +419,9 @@ class AmpLs:
         oe = float(rotation_angle_between(rot[0], torch.as_tensor(goal.rotation)))
         return pe, oe
 
-    def _result(self, s: _Search, b: int, goal: Goal, reason: str, elapsed: float, t_setup: float) -> PlanResult:
-        q_path = np.concatenate(s.paths[b])
+    def _result(
+        self, s: _Search, q_path: np.ndarray, b: int, goal: Goal, reason: str, elapsed: float, t_setup: float
+    ) -> PlanResult:
         with torch.no_grad():
             pos, rot = self.fk64.ee_pose(torch.as_tensor(q_path))
         pos_err, ori_err = self._fk_err(q_path[-1], goal)

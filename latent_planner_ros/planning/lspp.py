@@ -32,9 +32,13 @@ def lspp_seed_config(**overrides) -> AmpLsConfig:
         restarts=0,
         max_steps=300,
         lr=0.03,
+        plan_lr=0.03,
         tau_col=0.7,
         self_check=False,
         patience=300,
+        lazy_check=False,
+        finish_radius_m=0.0,
+        shortcut=False,
     )
     return replace(base, **overrides)
 
@@ -48,6 +52,10 @@ def lspp_config(**overrides) -> AmpLsConfig:
         n_seeds=32,
         restarts=192,
         backtrace_keep=0.5,
+        plan_lr=0.06,  # the open-loop additions of AMP-LS (chosen for the point-cloud planner) are off for LSPP
+        lazy_check=False,
+        finish_radius_m=0.0,
+        shortcut=False,
     )
     return replace(base, **overrides)
 

@@ -43,10 +43,11 @@ class CostBlindBackend(GeometricBackend):
         return super().p_collision(q, z) * 0.0
 
 
-@pytest.mark.parametrize("keep", [0.0, 0.5])
-def test_a_wall_of_points_triggers_back_tracing_and_is_never_crossed(shipped_vae, keep):
-    """Back-tracing (to the last accepted state, or keeping half of a colliding step's free part) never lets a
-    state of the returned path touch the wall, and the path stays connected."""
+@pytest.mark.parametrize(("keep", "lazy"), [(0.0, False), (0.5, False), (0.0, True)])
+def test_a_wall_of_points_triggers_back_tracing_and_is_never_crossed(shipped_vae, keep, lazy):
+    """Back-tracing (to the last accepted state, or keeping half of a colliding step's free part, or, checking
+    lazily, to the state before the first colliding step) never lets a state of the returned path (shortcut
+    included) touch the wall, and the path stays connected."""
     start = Q_READY.copy()
     goal_q = Q_READY + np.array([1.2, 0.3, 0.0, 0.3, 0.0, -0.2, 0.0])
     goal = _goal_of(goal_q)
@@ -59,7 +60,7 @@ def test_a_wall_of_points_triggers_back_tracing_and_is_never_crossed(shipped_vae
     s, h = np.meshgrid(np.linspace(-0.12, 0.12, 25), np.linspace(-0.15, 0.15, 31))
     wall = mid + s.reshape(-1, 1) * u + h.reshape(-1, 1) * np.array([0, 0, 1.0])
     backend = CostBlindBackend()
-    cfg = AmpLsConfig(collision_backend="geometric", max_steps=200, backtrace_keep=keep)
+    cfg = AmpLsConfig(collision_backend="geometric", max_steps=200, backtrace_keep=keep, lazy_check=lazy)
     result = AmpLs(shipped_vae, backend, cfg).plan(start, goal, wall)
     assert result.info["backtraces"] > 0
     backend.set_scene(wall)

@@ -1,0 +1,96 @@
+"""Greedy shortcutting of a checked joint path, and AMP-LS's exact finish and lazy checks around it."""
+
+import numpy as np
+
+from latent_planner_ros.planning import amp_ls
+from latent_planner_ros.planning.amp_ls import AmpLs
+from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.collision_backend import NoCollision
+from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.ik import solve_ik as original_ik
+from latent_planner_ros.planning.shortcut import candidates, shortcut
+from latent_planner_ros.planning.time_parameterisation import interpolate
+from latent_planner_ros.robot.limits import Q_READY
+from latent_planner_ros.robot.panda import load_panda
+
+
+def _densify(a, b):
+    return interpolate(a, b, max(1, int(np.ceil(np.abs(b - a).max() / 0.01))))
+
+
+def _box_check(segments):
+    """Hit where joint 0 and joint 1 are both inside (0.3, 0.7): a square obstacle in the (q0, q1) plane."""
+    return [np.all((seg[:, :2] > 0.3) & (seg[:, :2] < 0.7), axis=1) for seg in segments]
+
+
+def test_candidates_are_furthest_first_and_skip_the_next_vertex():
+    assert candidates(0, 10) == [10, 5, 2]
+    assert candidates(7, 10) == [10]
+    assert candidates(9, 10) == []
+
+
+def test_a_straight_free_chain_collapses_to_its_ends():
+    vertices = np.zeros((12, 7))
+    vertices[:, 0] = np.linspace(0.0, 1.1, 12)
+    assert shortcut(vertices, _densify, lambda segs: [np.zeros(len(s), bool) for s in segs]) == [0, 11]
+
+
+def test_shortcuts_go_around_an_obstacle_and_never_through_it():
+    # a chain around the square: up joint 1 first, then along joint 0
+    up = np.stack([np.zeros(8), np.linspace(0.0, 1.0, 8)], axis=1)
+    along = np.stack([np.linspace(0.0, 1.0, 8)[1:], np.ones(7)], axis=1)
+    vertices = np.zeros((15, 7))
+    vertices[:, :2] = np.concatenate([up, along])
+    assert not any(
+        h.any() for h in _box_check([_densify(a, b) for a, b in zip(vertices[:-1], vertices[1:], strict=True)])
+    )
+    kept = shortcut(vertices, _densify, _box_check)
+    assert kept[0] == 0 and kept[-1] == 14 and len(kept) < 15 and kept == sorted(kept)
+    path = [_densify(vertices[a], vertices[b]) for a, b in zip(kept[:-1], kept[1:], strict=True)]
+    assert not any(h.any() for h in _box_check(path))  # the direct segment (0,0) -> (1,1) is never taken
+    assert len(kept) > 2
+
+
+def test_rounds_are_bounded_and_keep_the_rest_of_the_chain():
+    vertices = np.zeros((20, 7))
+    vertices[:, 0] = np.linspace(0.0, 1.0, 20)
+    always_hit = lambda segs: [np.ones(len(s), bool) for s in segs]  # noqa: E731
+    assert shortcut(vertices, _densify, always_hit, max_rounds=3) == list(range(20))
+
+
+def _goal_of(q):
+    m = load_panda().fk(q)
+    return Goal(m.translation, m.rotation)
+
+
+def test_the_exact_finish_reaches_sooner_and_ends_on_the_goal(shipped_vae):
+    goal = _goal_of(Q_READY + np.array([0.5, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3]))
+    base = dict(use_collision=False, n_seeds=4, shortcut=False)
+    plain = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(finish_radius_m=0.0, **base), seed=1).plan(Q_READY, goal)
+    finished = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(finish_radius_m=0.1, **base), seed=1).plan(Q_READY, goal)
+    assert plain.success and finished.success
+    assert finished.iterations < plain.iterations
+    assert finished.final_pos_err_m < 0.5 * goal.pos_tol  # IK converges well inside the tolerance
+    assert np.abs(np.diff(finished.q_path, axis=0)).max() <= AmpLsConfig().check_step_rad + 1e-9
+
+
+class RefuseFar(NoCollision):
+    """The hard check refuses every state whose joint 6 has moved more than 0.3 rad from the start."""
+
+    def check(self, q):
+        return np.abs(np.atleast_2d(q)[:, 6] - Q_READY[6]) > 0.3
+
+
+def test_a_colliding_finish_is_refused_and_lazy_checks_back_trace(shipped_vae, monkeypatch):
+    """The goal needs joint 6 turned by 1.2 rad, the check refuses more than 0.3: neither the exact finish nor
+    the lazily checked chains may return a refused state; the chains that reached in the model back-trace."""
+    goal = _goal_of(Q_READY + np.array([0.3, 0.1, -0.1, 0.2, 0.0, 0.1, 1.2]))
+    cfg = AmpLsConfig(use_collision=True, n_seeds=2, max_steps=80, restarts=0, finish_radius_m=0.3)
+    solved = []
+    monkeypatch.setattr(amp_ls, "solve_ik", lambda *a: solved.append(original_ik(*a)) or solved[-1])
+    result = AmpLs(shipped_vae, RefuseFar(), cfg, seed=0).plan(Q_READY, goal)
+    assert not result.success
+    assert sum(sol.converged for sol in solved) > 0  # exact finishes were found, and refused by the check
+    assert result.info["backtraces"] > 0
+    assert np.all(np.abs(result.q_path[:, 6] - Q_READY[6]) <= 0.3)  # nothing refused is returned
+    assert len(result.q_path) > 1 and np.abs(np.diff(result.q_path, axis=0)).max() <= cfg.check_step_rad + 1e-9
