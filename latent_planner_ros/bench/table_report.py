@@ -125,11 +125,10 @@ def figures(results: dict, rows: list[dict]) -> dict:
     colours = {n: ("tab:blue" if n in AMP_LS_VARIANTS else "tab:orange") for n in names}
     figs = {}
 
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for n in names:
+    fig, ax = plt.subplots(figsize=(9, 6))
+    timed = sorted((n for n in names if stats[n]["time_median_s"] is not None), key=lambda n: stats[n]["time_median_s"])
+    for k, n in enumerate(timed):  # labels of neighbouring points alternate above and below
         r = stats[n]
-        if r["time_median_s"] is None:
-            continue
         lo, hi = r["success_ci95"]
         ax.errorbar(
             r["time_median_s"],
@@ -139,7 +138,8 @@ def figures(results: dict, rows: list[dict]) -> dict:
             color=colours[n],
             capsize=3,
         )
-        ax.annotate(n, (r["time_median_s"], r["success"]), textcoords="offset points", xytext=(5, 4), fontsize=8)
+        offset = (6, (5, -12, 14, -21)[k % 4])
+        ax.annotate(n, (r["time_median_s"], r["success"]), textcoords="offset points", xytext=offset, fontsize=8)
     ax.set(xscale="log", xlabel="median planning time [s]", ylabel="success rate (95 % CI)", ylim=(0, 1.05))
     ax.grid(alpha=0.3)
     figs["success_time"] = fig

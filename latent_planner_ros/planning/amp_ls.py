@@ -11,6 +11,13 @@ the last accepted latent; a free one is appended to the path. The loss weights a
 
 `plan` runs this open loop; `step` runs it one tick at a time for closed-loop control, keeping z and the
 multipliers across ticks and accepting a new goal and scene at every tick.
+
+Beyond the seed, `plan` (not `step`) by default (each a switch of AmpLsConfig, measured in `bench table`):
+- lazy checks: a seed's accepted steps are checked in one batch once it reaches the goal; at the first colliding
+  step it back-traces to the state before, with the same i/m scaling. Seeds that never win are never checked.
+- exact finish: the seed nearest the goal, once within finish_radius_m, finishes by damped-least-squares IK from
+  its accepted state (the latent optimisation is slow over the last centimetres); the segment is checked.
+- shortcutting of the successful path (planning/shortcut.py), every shortcut checked like a step.
 """
 
 from __future__ import annotations
