@@ -56,6 +56,9 @@ AMP_LS_VARIANTS: dict[str, AmpLsVariant] = {
         "beyond the seed off: no exact IK finish, the latent optimisation reaches alone", {"finish_radius_m": 0.0}
     ),
     "amp_ls_no_shortcut": AmpLsVariant("beyond the seed off: no shortcutting of the path", {"shortcut": False}),
+    "amp_ls_no_escape": AmpLsVariant(
+        "beyond the seed off: a start refused by the hard check is not left (escape_rad 0)", {"escape_rad": 0.0}
+    ),
     "amp_ls_seed_lr": AmpLsVariant("the closed loop's step size (lr 0.06) for plans too", {"plan_lr": 0.06}),
 }
 """AMP-LS rows of the table, in order."""

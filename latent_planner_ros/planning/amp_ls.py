@@ -18,6 +18,8 @@ Beyond the seed, `plan` (not `step`) by default (each a switch of AmpLsConfig, m
 - exact finish: the seed nearest the goal, once within finish_radius_m, finishes by damped-least-squares IK from
   its accepted state (the latent optimisation is slow over the last centimetres); the segment is checked.
 - shortcutting of the successful path (planning/shortcut.py), every shortcut checked like a step.
+- escape: a start that itself fails the hard check (conservative spheres touching noisy cloud points) does
+  not block the plan: states within escape_rad of it are not refused.
 """
 
 from __future__ import annotations
@@ -131,6 +133,7 @@ class AmpLs:
         self.checker = CollisionChecker()
         self.panda = load_panda()
         self.finish_ik = IkConfig(max_iters=30, max_step_rad=0.2)
+        self._escape_from: np.ndarray | None = None  # plan: the start, while states near it are not refused
         self._search: _Search | None = None
 
     # -- shared pieces -----------------------------------------------------------------------------
@@ -336,6 +339,11 @@ class AmpLs:
             raise ValueError(f"start_q must be 7 finite joint positions, got {start_q!r}")
         if cfg.use_collision:
             self.backend.set_scene(np.zeros((0, 3)) if cloud is None else cloud)
+        # a start refused by the (conservative) hard check: let the arm move out of it (escape_rad)
+        self._escape_from = None
+        start_refused = bool(self._check_segments([start_q[None]])[0][0])
+        if start_refused and cfg.escape_rad > 0:
+            self._escape_from = start_q
         s = _Search(self, start_q, lr=cfg.plan_lr)
         t_setup = time.perf_counter() - t0
         reason, winner = "step budget exhausted", None
@@ -365,7 +373,10 @@ class AmpLs:
         q_path = np.concatenate(s.paths[winner])
         if cfg.shortcut and reason == "reached":
             q_path = self._shortcut(s.paths[winner])
-        return self._result(s, q_path, winner, goal, reason, time.perf_counter() - t0, t_setup)
+        self._escape_from = None
+        result = self._result(s, q_path, winner, goal, reason, time.perf_counter() - t0, t_setup)
+        result.info["start_refused"] = start_refused
+        return result
 
     def _shortcut(self, path: list[np.ndarray]) -> np.ndarray:
         """The checked chain `path` (segments, each ending at an accepted state) shortened by `shortcut`, densified
@@ -394,6 +405,8 @@ class AmpLs:
         if self.config.self_check:  # only the states before each segment's first hit matter
             todo = np.concatenate([np.cumsum(h) == 0 for h in np.split(hits, ends)])
             hits[todo] |= ~self.checker.feasible(states[todo])
+        if self._escape_from is not None:
+            hits &= np.abs(states - self._escape_from).max(axis=1) > self.config.escape_rad
         return np.split(hits, ends)
 
     def _restart(self, s: _Search, b: int, t: int) -> None:
@@ -482,6 +495,7 @@ class AmpLs:
         exceeds speed_scale * its velocity limit over dt [s].
         """
         cfg = self.config
+        self._escape_from = None  # the closed loop never relaxes the hard check
         q_measured = np.asarray(q_measured, dtype=float)
         if cloud is not None and cfg.use_collision:
             self.backend.set_scene(cloud)

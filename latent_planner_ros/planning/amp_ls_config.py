@@ -58,6 +58,10 @@ class AmpLsConfig:
     """largest joint change [rad] the exact finish may make"""
     finish_every: int = 3
     """iterations between two exact-finish attempts of one seed"""
+    escape_rad: float = 0.05
+    """open loop: when the start itself fails the hard check (the arm's conservative spheres touch cloud points,
+    a noisy point), states within this max-joint distance [rad] of the start are not refused, so the arm can
+    move out; 0: refused (the plan then cannot accept a step)"""
     shortcut: bool = True
     """open loop: shorten a successful path by straight joint-space shortcuts that pass the same hard check as
     the accepted steps (planning/shortcut.py; beyond the seed)"""
@@ -115,7 +119,7 @@ class AmpLsConfig:
             problems.append(f"backtrace_keep must be in [0, 1), got {self.backtrace_keep!r}")
         if not (isinstance(self.restarts, int) and self.restarts >= 0):
             problems.append(f"restarts must be an integer >= 0, got {self.restarts!r}")
-        for name in ("finish_radius_m", "finish_angle_deg", "finish_max_rad"):
+        for name in ("finish_radius_m", "finish_angle_deg", "finish_max_rad", "escape_rad"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 problems.append(f"{name} must be a finite number >= 0, got {v!r}")

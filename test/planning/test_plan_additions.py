@@ -1,4 +1,4 @@
-"""Greedy shortcutting of a checked joint path, and AMP-LS's exact finish and lazy checks around it."""
+"""AMP-LS open-loop additions: shortcutting, the exact finish, lazy checks, the escape from a refused start."""
 
 import numpy as np
 
@@ -94,3 +94,22 @@ def test_a_colliding_finish_is_refused_and_lazy_checks_back_trace(shipped_vae, m
     assert result.info["backtraces"] > 0
     assert np.all(np.abs(result.q_path[:, 6] - Q_READY[6]) <= 0.3)  # nothing refused is returned
     assert len(result.q_path) > 1 and np.abs(np.diff(result.q_path, axis=0)).max() <= cfg.check_step_rad + 1e-9
+
+
+class RefuseAroundStart(NoCollision):
+    """The hard check refuses every state within 0.03 rad (max joint) of the ready pose, the start included."""
+
+    def check(self, q):
+        return np.abs(np.atleast_2d(q) - Q_READY).max(axis=1) < 0.03
+
+
+def test_a_start_refused_by_the_hard_check_can_be_left_within_escape_rad(shipped_vae):
+    goal = _goal_of(Q_READY + np.array([0.4, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3]))
+    base = dict(use_collision=True, n_seeds=4, max_steps=150)
+    stuck = AmpLs(shipped_vae, RefuseAroundStart(), AmpLsConfig(escape_rad=0.0, **base), seed=1).plan(Q_READY, goal)
+    assert not stuck.success and stuck.info["start_refused"] and len(stuck.q_path) == 1
+    planner = AmpLs(shipped_vae, RefuseAroundStart(), AmpLsConfig(escape_rad=0.05, **base), seed=1)
+    out = planner.plan(Q_READY, goal)
+    assert out.success and out.info["start_refused"]
+    assert planner._escape_from is None  # the relaxation ends with the plan
+    assert planner._check_segments([Q_READY[None]])[0].all()  # and does not outlive it
