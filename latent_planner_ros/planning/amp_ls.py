@@ -291,9 +291,9 @@ class AmpLs:
 
     def _finish(self, s: _Search, goal: Goal, ev: dict) -> int | None:
         """Exact finish (beyond the seed): the seed accepted this iteration that is nearest the goal, once its
-        TCP is within finish_radius_m / finish_angle_deg, takes a damped-least-squares IK step chain from its
-        accepted state to the goal pose; the straight segment to the solution is hard-checked like an accepted
-        step (lazily, with the seed's unchecked steps). Returns the seed that reached the goal, or None."""
+        TCP is within finish_radius_m / finish_angle_deg, runs damped-least-squares IK from its accepted state to
+        the goal pose; the straight segment to the solution is hard-checked like an accepted step (and, checking
+        lazily, the seed's unchecked steps with it). Returns the seed that reached the goal, or None."""
         cfg = self.config
         near = [
             b
@@ -331,7 +331,10 @@ class AmpLs:
 
     # -- open loop ------------------------------------------------------------------------------------
     def plan(self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None) -> PlanResult:
-        """Plan from start_q (7,) [rad] to `goal`; `cloud` (N, 3) [m] is the observed scene."""
+        """Plan from start_q (7,) [rad] to `goal`; `cloud` (N, 3) [m] is the observed scene.
+
+        The result's info["start_refused"] says whether the start itself failed the hard check (see escape_rad).
+        """
         cfg = self.config
         t0 = time.perf_counter()
         start_q = np.asarray(start_q, dtype=float)
