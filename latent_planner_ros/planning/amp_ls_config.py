@@ -46,8 +46,8 @@ class AmpLsConfig:
     lazy_check: bool = True
     """open loop: hard-check a seed's accepted steps only once it reaches the goal (and the chosen seed's at the
     end), in one batch, back-tracing to the state before the first colliding step (beyond the seed: seeds that
-    never win are not checked; 5x faster at the same success on a tuning set); False: every step is checked as it
-    is accepted (the seed, and always in the closed loop)"""
+    never win are not checked; about 3x faster at the same success in `bench table`); False: every step is
+    checked as it is accepted (the seed, and always in the closed loop)"""
     finish_radius_m: float = 0.1
     """open loop: > 0 lets the seed nearest the goal, once its TCP is within this distance [m] and
     finish_angle_deg of the goal, finish by exact damped-least-squares IK from its accepted state, the straight

@@ -32,8 +32,8 @@ def shortcut(
     segments), from 0 to N - 1.
 
     From the current vertex i each round densifies and checks the straight segments to the `candidates`, furthest
-    first, and jumps to the first one whose segment is free (else to i + 1). After `max_rounds`
-    rounds the rest of the chain is kept as it is.
+    first, and jumps to the first one whose segment is free (else to i + 1). After `max_rounds` rounds the rest
+    of the chain is kept as it is.
 
     Args:
         densify: (q_from (7,), q_to (7,)) -> the states (m, 7) to check on the segment, q_from excluded.
