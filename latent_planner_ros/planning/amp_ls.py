@@ -164,45 +164,12 @@ class AmpLs:
         q, pos, ori = self._pose(s.z)
         p_col = self.backend.p_collision(q, s.z) if cfg.use_collision else torch.zeros(len(q))
         pos_err, ori_err = self._errors(pos, ori, goal)
-        if accept and lazy:
+        if accept:
             q_np, p_np = q.detach().double().numpy(), p_col.detach().numpy()
             rejected = cfg.use_collision & (p_np >= cfg.col_threshold)
             events["rejected"] = [int(b) for b in np.flatnonzero(rejected)]
-            self._accept_lazily(s, goal, np.flatnonzero(~rejected), q_np, pos_err, ori_err, events)
-            if events["reached"]:
-                events["pos_err"], events["ori_err"], events["p_col"] = pos_err, ori_err, p_col.detach().numpy()
-                return events
-            if events["backtraced"]:
-                q, pos, ori = self._pose(s.z)
-                p_col = self.backend.p_collision(q, s.z) if cfg.use_collision else torch.zeros(len(q))
-        elif accept:
-            q_np, p_np = q.detach().double().numpy(), p_col.detach().numpy()
-            rejected = cfg.use_collision & (p_np >= cfg.col_threshold)
-            events["rejected"] = [int(b) for b in np.flatnonzero(rejected)]
-            candidates = np.flatnonzero(~rejected)
-            segs = {int(b): interpolate(s.q_prev[b], q_np[b], self._n_checks(s.q_prev[b], q_np[b])) for b in candidates}
-            all_hits = self._check_segments(list(segs.values()))
-            for b, seg, hits in zip(segs, segs.values(), all_hits, strict=True):
-                if hits.any():
-                    i = int(np.argmax(hits)) + 1
-                    s.target.scale(np.where(np.arange(len(q_np)) == b, i / len(seg), 1.0))
-                    keep = int(cfg.backtrace_keep * (i - 1))  # free states of the step kept on the path
-                    with torch.no_grad():
-                        if keep > 0:
-                            s.paths[b].append(seg[:keep])
-                            s.q_prev[b] = seg[keep - 1]
-                            s.z_prev[b] += (keep / len(seg)) * (s.z[b] - s.z_prev[b])
-                        s.z[b] = s.z_prev[b]
-                    s.backtraces += 1
-                    events["backtraced"].append(b)
-                    continue
-                s.paths[b].append(seg)
-                events["accepted"].append(b)
-                s.q_prev[b] = q_np[b]
-                with torch.no_grad():
-                    s.z_prev[b] = s.z[b]
-                if self._reached(pos_err[b], ori_err[b], goal):
-                    events["reached"].append(b)
+            accept_steps = self._accept_lazily if lazy else self._accept_eagerly
+            accept_steps(s, goal, np.flatnonzero(~rejected), q_np, pos_err, ori_err, events)
             if events["reached"]:
                 events["pos_err"], events["ori_err"], events["p_col"] = pos_err, ori_err, p_col.detach().numpy()
                 return events
@@ -235,6 +202,34 @@ class AmpLs:
         }
         events["pos_err"], events["ori_err"], events["p_col"] = pos_err, ori_err, p_col.detach().numpy()
         return events
+
+    def _accept_eagerly(self, s: _Search, goal: Goal, candidates, q_np, pos_err, ori_err, events) -> None:
+        """Algorithm 1: check the step of every seed in candidates to its decoded state q_np[b] (one batch); accept
+        the free ones, back-trace the colliding ones (lambda_target scaled by i/m)."""
+        cfg = self.config
+        segs = {int(b): interpolate(s.q_prev[b], q_np[b], self._n_checks(s.q_prev[b], q_np[b])) for b in candidates}
+        all_hits = self._check_segments(list(segs.values()))
+        for b, seg, hits in zip(segs, segs.values(), all_hits, strict=True):
+            if hits.any():
+                i = int(np.argmax(hits)) + 1
+                s.target.scale(np.where(np.arange(len(q_np)) == b, i / len(seg), 1.0))
+                keep = int(cfg.backtrace_keep * (i - 1))  # free states of the step kept on the path
+                with torch.no_grad():
+                    if keep > 0:
+                        s.paths[b].append(seg[:keep])
+                        s.q_prev[b] = seg[keep - 1]
+                        s.z_prev[b] += (keep / len(seg)) * (s.z[b] - s.z_prev[b])
+                    s.z[b] = s.z_prev[b]
+                s.backtraces += 1
+                events["backtraced"].append(b)
+                continue
+            s.paths[b].append(seg)
+            events["accepted"].append(b)
+            s.q_prev[b] = q_np[b]
+            with torch.no_grad():
+                s.z_prev[b] = s.z[b]
+            if self._reached(pos_err[b], ori_err[b], goal):
+                events["reached"].append(b)
 
     def _accept_lazily(self, s: _Search, goal: Goal, candidates, q_np, pos_err, ori_err, events) -> None:
         """Accept the decoded states q_np[candidates] unchecked; check the seeds that reach the goal (one batch)
