@@ -59,6 +59,9 @@ AMP_LS_VARIANTS: dict[str, AmpLsVariant] = {
     "amp_ls_no_escape": AmpLsVariant(
         "beyond the seed off: a start refused by the hard check is not left (escape_rad 0)", {"escape_rad": 0.0}
     ),
+    "amp_ls_no_guidance": AmpLsVariant(
+        "beyond the seed off: restarts keep the pose target (no IK goal configurations)", {"goal_guidance": 0}
+    ),
     "amp_ls_seed_lr": AmpLsVariant("the closed loop's step size (lr 0.06) for plans too", {"plan_lr": 0.06}),
 }
 """AMP-LS rows of the table, in order."""

@@ -20,6 +20,9 @@ Beyond the seed, `plan` (not `step`) by default (each a switch of AmpLsConfig, m
 - shortcutting of the successful path (planning/shortcut.py), every shortcut checked like a step.
 - escape: a start that itself fails the hard check (conservative spheres touching noisy cloud points) does
   not block the plan: states within escape_rad of it are not refused.
+- goal guidance: at the first restart, IK solutions of the goal that pass the hard check are searched once;
+  restarted seeds target one of them in joint space (a goal near the joint limits stalls the pose loss) and
+  finish by the checked straight segment to it.
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ from latent_planner_ros.models.vae import RobotStateVAE
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.collision_backend import CollisionBackend
 from latent_planner_ros.planning.goal import Goal
-from latent_planner_ros.planning.ik import IkConfig, solve_ik
+from latent_planner_ros.planning.ik import IkConfig, goal_configurations, solve_ik
 from latent_planner_ros.planning.result import PlanResult
 from latent_planner_ros.planning.shortcut import shortcut
 from latent_planner_ros.planning.time_parameterisation import interpolate, time_parameterise
@@ -102,6 +105,9 @@ class _Search:
         self.target = Geco(GecoConfig(tau=-cfg.tau_prior, step=cfg.geco_step_target, lambda_init=1.0, **geco), (b,))
         self.col = Geco(GecoConfig(tau=cfg.tau_col, step=cfg.geco_step_col, lambda_init=cfg.lambda_col, **geco), (b,))
         self.best_err = np.full(b, np.inf)
+        self.guide_q = np.full((b, 7), np.nan)  # goal guidance: each seed's joint-space target (NaN: the pose)
+        self.best_guide_err = np.full(b, np.inf)  # [rad] smallest max-joint distance to guide_q so far
+        self.goal_qs: list[np.ndarray] | None = None  # goal configurations, once searched
         self.finish_tried = np.full(b, -(10**9))  # iteration of each seed's last exact-finish attempt
         self.last_improved = np.zeros(b, dtype=int)
         self.iteration = 0
@@ -180,6 +186,12 @@ class AmpLs:
         target_ori = matrix_to_rot6d(torch.as_tensor(goal.rotation, dtype=pos.dtype))
         l_pos = (pos - target_pos).norm(dim=-1)
         l_ori = (ori - target_ori).norm(dim=-1) if cfg.use_orientation else torch.zeros_like(l_pos)
+        guided = np.isfinite(s.guide_q[:, 0])
+        if guided.any():  # goal guidance: joint-space distance [rad] to the seed's goal configuration
+            g = torch.as_tensor(guided)
+            l_joint = (q - torch.as_tensor(np.nan_to_num(s.guide_q), dtype=q.dtype)).norm(dim=-1).to(l_pos.dtype)
+            l_pos = torch.where(g, l_joint, l_pos)
+            l_ori = torch.where(g, torch.zeros_like(l_ori), l_ori)
         l_col = -torch.log1p(-p_col.clamp(max=1 - 1e-6)) if cfg.use_collision else torch.zeros_like(l_pos)
         l_prior = 0.5 * s.z.pow(2).mean(-1)
         lam_t = torch.as_tensor(s.target.update(-l_prior.detach().numpy()), dtype=pos.dtype)
@@ -285,17 +297,23 @@ class AmpLs:
         return backtraced
 
     def _finish(self, s: _Search, goal: Goal, ev: dict) -> int | None:
-        """Exact finish (beyond the seed): the seed accepted this iteration that is nearest the goal, once its
-        TCP is within finish_radius_m / finish_angle_deg, runs damped-least-squares IK from its accepted state to
-        the goal pose; the straight segment to the solution is hard-checked like an accepted step (and, checking
-        lazily, the seed's unchecked steps with it). Returns the seed that reached the goal, or None."""
+        """Exact finish (beyond the seed): a guided seed accepted this iteration within finish_max_rad of its goal
+        configuration tries the straight segment to it; else the accepted seed nearest the goal, once its TCP is
+        within finish_radius_m / finish_angle_deg, runs damped-least-squares IK from its accepted state to the
+        goal pose and tries the segment to the solution. Returns the seed that reached the goal, or None."""
         cfg = self.config
+        due = [b for b in ev["accepted"] if s.iteration - s.finish_tried[b] >= cfg.finish_every]
+        for b in due:
+            if np.isfinite(s.guide_q[b, 0]) and np.abs(s.guide_q[b] - s.q_prev[b]).max() <= cfg.finish_max_rad:
+                s.finish_tried[b] = s.iteration
+                if self._finish_to(s, b, s.guide_q[b].copy()):
+                    return b
         near = [
             b
-            for b in ev["accepted"]
+            for b in due
             if ev["pos_err"][b] < cfg.finish_radius_m
             and ev["ori_err"][b] < np.radians(cfg.finish_angle_deg)
-            and s.iteration - s.finish_tried[b] >= cfg.finish_every
+            and s.finish_tried[b] != s.iteration
         ]
         if not near:
             return None
@@ -304,17 +322,38 @@ class AmpLs:
         sol = solve_ik(self.panda, goal, s.q_prev[b], self.finish_ik)
         if not sol.converged or np.abs(sol.q - s.q_prev[b]).max() > cfg.finish_max_rad:
             return None
-        seg = interpolate(s.q_prev[b], sol.q, self._n_checks(s.q_prev[b], sol.q))
+        return b if self._finish_to(s, b, sol.q) else None
+
+    def _finish_to(self, s: _Search, b: int, q_goal: np.ndarray) -> bool:
+        """Try the straight segment from seed b's accepted state to q_goal (7,) [rad], hard-checked like an
+        accepted step (and, checking lazily, the seed's unchecked steps with it); True if it joined the path."""
+        seg = interpolate(s.q_prev[b], q_goal, self._n_checks(s.q_prev[b], q_goal))
         if self._check_segments([seg])[0].any():
-            return None
-        if cfg.lazy_check:
-            s.pending[b].append((sol.q, s.z_prev[b].detach().clone()))
+            return False
+        if self.config.lazy_check:
+            s.pending[b].append((q_goal, s.z_prev[b].detach().clone()))
             if self._verify(s, [b]):
-                return None
+                return False
         else:
             s.paths[b].append(seg)
-        s.q_prev[b] = sol.q
-        return b
+        s.q_prev[b] = q_goal
+        return True
+
+    def _goal_configurations(self, s: _Search, goal: Goal) -> list[np.ndarray]:
+        """Goal guidance: up to goal_guidance distinct IK solutions (7,) [rad] of the goal that pass the hard
+        check, searched once per plan (from the best seed's state, the ready pose, then random seeds)."""
+        if s.goal_qs is None:
+            rng = np.random.default_rng(int(torch.randint(0, 2**31 - 1, (1,), generator=self.generator)))
+            search = goal_configurations(
+                self.panda,
+                goal,
+                s.q_prev[int(np.argmin(s.best_err))],
+                lambda q: "hard check" if self._check_segments([q[None]])[0][0] else None,
+                IkConfig(n_seeds=32, max_solutions=self.config.goal_guidance, timeout_s=0.5),
+                rng,
+            )
+            s.goal_qs = search.solutions
+        return s.goal_qs
 
     def _direct_target(self, q_from: np.ndarray, q_last: np.ndarray, q_first: np.ndarray) -> np.ndarray:
         """The state to command from q_from (7,) [rad]: q_last when the straight segment to it passes the hard
@@ -356,11 +395,15 @@ class AmpLs:
             err = ev["pos_err"]
             improved = err < s.best_err - 0.002
             s.best_err = np.where(improved, err, s.best_err)
+            with np.errstate(invalid="ignore"):  # guided seeds progress in joint space (NaN: unguided)
+                guide_err = np.abs(s.q_prev - s.guide_q).max(axis=1)
+                improved |= guide_err < s.best_guide_err - 0.01
+            s.best_guide_err = np.fmin(s.best_guide_err, guide_err)
             s.last_improved = np.where(improved, t, s.last_improved)
             stalled = t - s.last_improved > cfg.patience
             if stalled.any() and s.restarts < cfg.restarts:
                 for b in np.flatnonzero(stalled)[: cfg.restarts - s.restarts]:
-                    self._restart(s, int(b), t)
+                    self._restart(s, int(b), t, goal)
             elif np.all(stalled):
                 reason = "no progress"
                 break
@@ -374,6 +417,8 @@ class AmpLs:
         self._escape_from = None
         result = self._result(s, q_path, winner, goal, reason, time.perf_counter() - t0, t_setup)
         result.info["start_refused"] = start_refused
+        result.info["goal_configurations"] = -1 if s.goal_qs is None else len(s.goal_qs)  # -1: not searched
+        result.info["guided"] = bool(np.isfinite(s.guide_q[winner, 0]))
         return result
 
     def _shortcut(self, path: list[np.ndarray]) -> np.ndarray:
@@ -407,9 +452,14 @@ class AmpLs:
             hits &= np.abs(states - self._escape_from).max(axis=1) > self.config.escape_rad
         return np.split(hits, ends)
 
-    def _restart(self, s: _Search, b: int, t: int) -> None:
-        """Move stalled seed b to the best seed's last accepted state, with a latent kick (open loop)."""
+    def _restart(self, s: _Search, b: int, t: int, goal: Goal) -> None:
+        """Move stalled seed b to the best seed's last accepted state, with a latent kick (open loop); with goal
+        guidance, the seed then targets a goal configuration (the k-th restart the k-th nearest, cyclically)."""
         best = int(np.argmin(s.best_err))
+        if self.config.goal_guidance > 0 and (goal_qs := self._goal_configurations(s, goal)):
+            order = np.argsort([np.abs(g - s.q_prev[best]).max() for g in goal_qs])
+            s.guide_q[b] = goal_qs[order[s.restarts % len(goal_qs)]]
+            s.best_guide_err[b] = np.inf
         noise = self.config.seed_noise * self.config.restart_scale
         with torch.no_grad():
             s.z_prev[b] = s.z_prev[best]

@@ -62,6 +62,12 @@ class AmpLsConfig:
     """open loop: when the start itself fails the hard check (the arm's conservative spheres touch cloud points,
     a noisy point), states within this max-joint distance [rad] of the start are not refused, so the arm can
     move out; 0: refused (the plan then cannot accept a step)"""
+    goal_guidance: int = 4
+    """open loop: at the first restart, look for up to this many distinct IK solutions of the goal that pass the
+    hard check (damped least squares from several seeds, as the OMPL baseline does); restarted seeds then take
+    the joint-space distance to one of them as their target loss and finish by the straight segment to it once
+    within finish_max_rad (beyond the seed: goals that need joints near their limits stall the pose loss);
+    0: restarts keep the pose target"""
     shortcut: bool = True
     """open loop: shorten a successful path by straight joint-space shortcuts that pass the same hard check as
     the accepted steps (planning/shortcut.py; beyond the seed)"""
@@ -123,6 +129,9 @@ class AmpLsConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 problems.append(f"{name} must be a finite number >= 0, got {v!r}")
+        if not (isinstance(self.goal_guidance, int) and not isinstance(self.goal_guidance, bool)
+                and self.goal_guidance >= 0):  # fmt: skip
+            problems.append(f"goal_guidance must be an integer >= 0, got {self.goal_guidance!r}")
         for name in ("max_steps", "interp_steps", "finish_every", "n_seeds", "closed_loop_seeds", "patience"):
             if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
                 problems.append(f"{name} must be an integer >= 1, got {getattr(self, name)!r}")

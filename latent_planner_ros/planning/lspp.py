@@ -39,6 +39,7 @@ def lspp_seed_config(**overrides) -> AmpLsConfig:
         lazy_check=False,
         finish_radius_m=0.0,
         shortcut=False,
+        goal_guidance=0,
     )
     return replace(base, **overrides)
 
@@ -56,6 +57,7 @@ def lspp_config(**overrides) -> AmpLsConfig:
         lazy_check=False,
         finish_radius_m=0.0,
         shortcut=False,
+        goal_guidance=0,
     )
     return replace(base, **overrides)
 

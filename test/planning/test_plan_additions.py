@@ -113,3 +113,45 @@ def test_a_start_refused_by_the_hard_check_can_be_left_within_escape_rad(shipped
     assert out.success and out.info["start_refused"]
     assert planner._escape_from is None  # the relaxation ends with the plan
     assert planner._check_segments([Q_READY[None]])[0].all()  # and does not outlive it
+
+
+# a goal that needs joint 4 near its lower limit: from this start the pose loss stalls (free space, no obstacles)
+AWKWARD_START = np.array([-2.211, 1.487, 1.426, -0.075, 1.213, 1.443, -2.315])
+AWKWARD_GOAL_Q = np.array([-2.389, 1.653, 1.008, -2.994, 1.847, 1.584, -2.471])
+
+
+def test_goal_guidance_finishes_a_plan_the_pose_loss_stalls_on(shipped_vae):
+    goal = _goal_of(AWKWARD_GOAL_Q)
+    base = dict(use_collision=False, max_steps=400)
+    plain = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(goal_guidance=0, **base), seed=0).plan(AWKWARD_START, goal)
+    assert not plain.success and plain.info["goal_configurations"] == -1 and not plain.info["guided"]
+    planner = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(goal_guidance=4, **base), seed=0)
+    guided = planner.plan(AWKWARD_START, goal)
+    assert guided.success and guided.info["guided"] and guided.info["goal_configurations"] >= 1
+    assert guided.final_pos_err_m < goal.pos_tol and guided.final_ori_err_rad < goal.ori_tol
+    assert np.abs(np.diff(guided.q_path, axis=0)).max() <= AmpLsConfig().check_step_rad + 1e-9
+    assert planner.checker.feasible(guided.q_path).all()  # every state on the path passed the self check
+
+
+class RefuseNear(NoCollision):
+    """The hard check refuses every state within 0.3 rad (max joint) of q_refused (7,)."""
+
+    def __init__(self, q_refused):
+        self.q_refused = q_refused
+
+    def check(self, q):
+        return np.abs(np.atleast_2d(q) - self.q_refused).max(axis=1) < 0.3
+
+
+def test_goal_configurations_reach_the_goal_and_pass_the_hard_check(shipped_vae):
+    q_goal = Q_READY + np.array([0.5, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3])
+    goal = _goal_of(q_goal)
+    planner = AmpLs(shipped_vae, RefuseNear(q_goal), AmpLsConfig(goal_guidance=3), seed=0)
+    s = amp_ls._Search(planner, Q_READY)
+    found = planner._goal_configurations(s, goal)
+    assert len(found) == 3 and planner._goal_configurations(s, goal) is found  # searched once per plan
+    panda = load_panda()
+    for q in found:
+        assert np.linalg.norm(panda.fk(q).translation - goal.position) < goal.pos_tol
+        assert np.abs(q - q_goal).max() >= 0.3 and not planner._check_segments([q[None]])[0][0]
+    assert all(np.abs(a - b).max() >= 0.1 for i, a in enumerate(found) for b in found[:i])  # distinct
