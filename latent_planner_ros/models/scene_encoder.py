@@ -27,9 +27,9 @@ class SceneEncoderConfig:
     """edge length [m] of the cubic voxels"""
     point_hidden: int = 32
     """width of the per-point MLP's hidden layer"""
-    point_features: int = 64
+    point_features: int = 32
     """per-point (and max-pooled per-voxel) feature width"""
-    conv_channels: tuple[int, ...] = (64, 64, 128)
+    conv_channels: tuple[int, ...] = (32, 32, 32, 64)
     """output channels of the 3x3x3 convolutions; the last one is the embedding width"""
 
     def __post_init__(self) -> None:
