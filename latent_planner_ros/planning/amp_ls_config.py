@@ -65,9 +65,9 @@ class AmpLsConfig:
     goal_guidance: int = 4
     """open loop: at the first restart, look for up to this many distinct IK solutions of the goal that pass the
     hard check (damped least squares from several seeds, as the OMPL baseline does); restarted seeds then take
-    the joint-space distance to one of them as their target loss and finish by the straight segment to it once
-    within finish_max_rad (beyond the seed: goals that need joints near their limits stall the pose loss);
-    0: restarts keep the pose target"""
+    the joint-space distance to one of them as their target loss and (with the exact finish on) finish by the
+    straight segment to it once within finish_max_rad (beyond the seed: goals that need joints near their limits
+    stall the pose loss); 0: restarts keep the pose target"""
     shortcut: bool = True
     """open loop: shorten a successful path by straight joint-space shortcuts that pass the same hard check as
     the accepted steps (planning/shortcut.py; beyond the seed)"""

@@ -1,6 +1,7 @@
 """AMP-LS open-loop additions: shortcutting, the exact finish, lazy checks, the escape from a refused start."""
 
 import numpy as np
+import pytest
 
 from latent_planner_ros.planning import amp_ls
 from latent_planner_ros.planning.amp_ls import AmpLs
@@ -155,3 +156,9 @@ def test_goal_configurations_reach_the_goal_and_pass_the_hard_check(shipped_vae)
         assert np.linalg.norm(panda.fk(q).translation - goal.position) < goal.pos_tol
         assert np.abs(q - q_goal).max() >= 0.3 and not planner._check_segments([q[None]])[0][0]
     assert all(np.abs(a - b).max() >= 0.1 for i, a in enumerate(found) for b in found[:i])  # distinct
+
+
+def test_a_bad_goal_guidance_is_refused_by_name():
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="goal_guidance"):
+            AmpLsConfig(goal_guidance=bad)
