@@ -17,7 +17,9 @@ Beyond the seed, `plan` (not `step`) by default (each a switch of AmpLsConfig, m
   step it back-traces to the state before, with the same i/m scaling. Seeds that never win are never checked.
 - exact finish: the seed nearest the goal, once within finish_radius_m, finishes by damped-least-squares IK from
   its accepted state (the latent optimisation is slow over the last centimetres); the segment is checked.
-- shortcutting of the successful path (planning/shortcut.py), every shortcut checked like a step.
+- shortcutting of the successful path (planning/shortcut.py), every shortcut checked like a step; shortcut
+  first: a seed that reaches the goal first tries the straight segment from the start, and its own unchecked
+  steps are checked only if that segment collides.
 - escape: a start that itself fails the hard check (conservative spheres touching noisy cloud points) does
   not block the plan: states within escape_rad of it are not refused.
 - goal guidance: at the first restart, IK solutions of the goal that pass the hard check are searched once;
@@ -254,7 +256,7 @@ class AmpLs:
                 s.z_prev[b] = s.z[b]
             if self._reached(pos_err[b], ori_err[b], goal):
                 due.append(b)
-        hit = set(self._verify(s, due))
+        hit = set(self._verify(s, [b for b in due if not self._direct(s, b)]))
         for b in (int(b) for b in candidates):
             if b in hit:
                 events["backtraced"].append(b)
@@ -324,11 +326,31 @@ class AmpLs:
             return None
         return b if self._finish_to(s, b, sol.q) else None
 
+    def _direct(self, s: _Search, b: int, q_goal: np.ndarray | None = None) -> bool:
+        """Shortcut first (open loop, with `shortcut` on): the straight segment from the start to seed b's last
+        accepted state (or to q_goal (7,) [rad]), hard-checked like a step. If it is free it becomes the seed's
+        whole path and its unchecked steps are dropped, as shortcutting would drop them; True if it did."""
+        if not self.config.shortcut:
+            return False
+        start = s.paths[b][0][0]
+        end = s.q_prev[b] if q_goal is None else q_goal
+        seg = interpolate(start, end, self._n_checks(start, end))
+        if not self._free(seg):
+            return False
+        s.paths[b] = [start[None], seg]
+        s.pending[b] = []
+        s.q_prev[b] = s.q_ok[b] = end
+        with torch.no_grad():
+            s.z_ok[b] = s.z_prev[b]
+        return True
+
     def _finish_to(self, s: _Search, b: int, q_goal: np.ndarray) -> bool:
         """Try the straight segment from seed b's accepted state to q_goal (7,) [rad], hard-checked like an
         accepted step (and, checking lazily, the seed's unchecked steps with it); True if it joined the path."""
+        if self.config.lazy_check and self._direct(s, b, q_goal):
+            return True
         seg = interpolate(s.q_prev[b], q_goal, self._n_checks(s.q_prev[b], q_goal))
-        if self._check_segments([seg])[0].any():
+        if not self._free(seg):
             return False
         if self.config.lazy_check:
             s.pending[b].append((q_goal, s.z_prev[b].detach().clone()))
@@ -425,7 +447,11 @@ class AmpLs:
         """The checked chain `path` (segments, each ending at an accepted state) shortened by `shortcut`, densified
         at the check resolution: (T, 7) [rad]."""
         vertices = np.stack([seg[-1] for seg in path])
-        kept = shortcut(vertices, lambda a, b: interpolate(a, b, self._n_checks(a, b)), self._check_segments)
+        kept = shortcut(
+            vertices,
+            lambda a, b: interpolate(a, b, self._n_checks(a, b)),
+            lambda segs: [np.array([not self._free(seg)]) for seg in segs],
+        )
         segs = [vertices[:1]] + [
             interpolate(vertices[a], vertices[b], self._n_checks(vertices[a], vertices[b]))
             for a, b in zip(kept[:-1], kept[1:], strict=True)
@@ -437,6 +463,16 @@ class AmpLs:
         if self.config.check_step_rad <= 0:
             return self.config.interp_steps
         return max(1, int(np.ceil(np.abs(q_to - q_from).max() / self.config.check_step_rad)))
+
+    def _free(self, seg: np.ndarray, stride: int = 4) -> bool:
+        """True if every state of the segment (m, 7) [rad] passes the hard check: every stride-th state first, the
+        rest only if those pass (a colliding segment is usually refused at a quarter of the cost)."""
+        coarse = np.zeros(len(seg), dtype=bool)
+        coarse[stride - 1 :: stride] = True
+        coarse[-1] = True
+        if self._check_segments([seg[coarse]])[0].any():
+            return False
+        return not (len(seg) > coarse.sum() and self._check_segments([seg[~coarse]])[0].any())
 
     def _check_segments(self, segs: list[np.ndarray]) -> list[np.ndarray]:
         """Hard checks of interpolated segments [(m, 7)] in one batch: a (m,) bool hit mask per segment."""

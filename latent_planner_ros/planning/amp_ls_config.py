@@ -14,7 +14,7 @@ class AmpLsConfig:
 
     lr: float = 0.06
     """latent step size (Adam learning rate) of the closed loop (`step`) [latent units]"""
-    plan_lr: float = 0.2
+    plan_lr: float = 0.3
     """latent step size of open-loop plans (`plan`) [latent units] (the seed's single step size: lr)"""
     optimizer: str = "adam"
     """"adam" or "sgd" (plain gradient step, seed eq. 3)"""
@@ -48,15 +48,15 @@ class AmpLsConfig:
     end), in one batch, back-tracing to the state before the first colliding step (beyond the seed: seeds that
     never win are not checked; about 3x faster at the same success in `bench table`); False: every step is
     checked as it is accepted (the seed, and always in the closed loop)"""
-    finish_radius_m: float = 0.1
+    finish_radius_m: float = 0.5
     """open loop: > 0 lets the seed nearest the goal, once its TCP is within this distance [m] and
     finish_angle_deg of the goal, finish by exact damped-least-squares IK from its accepted state, the straight
     segment to the solution checked like any step (beyond the seed); 0: only the latent optimisation reaches"""
-    finish_angle_deg: float = 120.0
+    finish_angle_deg: float = 180.0
     """orientation error [deg] within which the exact finish is tried"""
     finish_max_rad: float = 1.0
     """largest joint change [rad] the exact finish may make"""
-    finish_every: int = 3
+    finish_every: int = 2
     """iterations between two exact-finish attempts of one seed"""
     escape_rad: float = 0.05
     """open loop: when the start itself fails the hard check (the arm's conservative spheres touch cloud points,
@@ -70,7 +70,8 @@ class AmpLsConfig:
     stall the pose loss); 0: restarts keep the pose target"""
     shortcut: bool = True
     """open loop: shorten a successful path by straight joint-space shortcuts that pass the same hard check as
-    the accepted steps (planning/shortcut.py; beyond the seed)"""
+    the accepted steps (planning/shortcut.py; beyond the seed); with lazy_check, a seed reaching the goal first
+    tries the straight segment from the start, before its own steps are checked"""
     self_check: bool = True
     """also check every interpolated state for self- and table collision (exact meshes; beyond the seed)"""
     target_on_fk: bool = True

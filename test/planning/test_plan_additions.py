@@ -162,3 +162,59 @@ def test_a_bad_goal_guidance_is_refused_by_name():
     for bad in (-1, 1.5, True):
         with pytest.raises(ValueError, match="goal_guidance"):
             AmpLsConfig(goal_guidance=bad)
+
+
+class Recording(NoCollision):
+    """Free everywhere; records every state the hard check sees."""
+
+    def __init__(self):
+        self.seen = []
+
+    def check(self, q):
+        self.seen.append(np.atleast_2d(q).copy())
+        return np.zeros(len(self.seen[-1]), dtype=bool)
+
+
+def _off_line(q, a, b):
+    """Largest distance [rad] of states q (N, 7) from the segment a-b."""
+    t = np.clip((q - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+    return np.linalg.norm(q - (a + t[:, None] * (b - a)), axis=1).max()
+
+
+def test_shortcut_first_checks_the_straight_segment_and_not_the_chain(shipped_vae):
+    """Checking lazily with shortcutting on, a seed that reaches the goal first tries the straight segment from the
+    start: in free space it is the whole path, and no state of the wandering chain is ever checked."""
+    goal = _goal_of(Q_READY + np.array([0.5, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3]))
+    backend = Recording()
+    cfg = AmpLsConfig(use_collision=True, n_seeds=4, lazy_check=True, shortcut=True)
+    result = AmpLs(shipped_vae, backend, cfg, seed=1).plan(Q_READY, goal)
+    assert result.success
+    end = result.q_path[-1]
+    assert _off_line(result.q_path, Q_READY, end) < 1e-9
+    checked = np.concatenate(backend.seen[1:])  # [0]: the start's own check
+    assert _off_line(checked, Q_READY, end) < 1e-9
+    assert np.abs(np.diff(result.q_path, axis=0)).max() <= cfg.check_step_rad + 1e-9
+
+
+class RefuseOne(NoCollision):
+    """Refuses exactly one configuration."""
+
+    def __init__(self, bad):
+        self.bad, self.calls = bad, 0
+
+    def check(self, q):
+        self.calls += 1
+        return np.all(np.isclose(np.atleast_2d(q), self.bad), axis=1)
+
+
+@pytest.mark.parametrize("bad_index", [0, 1, 3, 8, 9])
+def test_a_segment_is_free_only_if_every_state_passes(shipped_vae, bad_index):
+    """_free checks every 4th state first and the rest after: a refused state anywhere refuses the segment, and
+    one refused at a coarse state costs a single check."""
+    seg = interpolate(Q_READY, Q_READY + 0.1, 10)
+    backend = RefuseOne(seg[bad_index])
+    planner = AmpLs(shipped_vae, backend, AmpLsConfig(self_check=False))
+    assert not planner._free(seg)
+    assert backend.calls == (1 if bad_index in (3, 7, 9) else 2)
+    backend.bad = Q_READY - 1.0
+    assert planner._free(seg) and planner._free(seg[:1])

@@ -55,3 +55,20 @@ def test_fk_is_differentiable():
     q[0, 3] = -1.5
     q.requires_grad_(True)
     assert torch.autograd.gradcheck(lambda x: fk.ee_pose(x)[0], (q,))
+
+
+def test_the_closed_form_gradient_matches_autograd_and_pinocchio(rng):
+    """_Kinematics' backward: gradcheck in float64 on every frame, and the TCP position's Jacobian equals
+    pinocchio's (LOCAL_WORLD_ALIGNED linear part)."""
+    fk = TorchFK(dtype=torch.float64)
+    q = torch.as_tensor(rng.uniform(Q_MIN, Q_MAX, size=(4, 7))).requires_grad_(True)
+    assert torch.autograd.gradcheck(fk, (q,))
+    panda = load_panda()
+    data = panda.model.createData()
+    tcp = panda.frame_id(EE_FRAME)
+    for qi in q.detach().numpy():
+        jac = torch.autograd.functional.jacobian(lambda x: fk.ee_pose(x)[0], torch.as_tensor(qi)).numpy()
+        pin.computeJointJacobians(panda.model, data, qi)
+        pin.framesForwardKinematics(panda.model, data, qi)
+        ref = pin.getFrameJacobian(panda.model, data, tcp, pin.LOCAL_WORLD_ALIGNED)[:3, :7]
+        assert np.abs(jac - ref).max() < 1e-9
