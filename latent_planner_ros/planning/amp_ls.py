@@ -51,6 +51,10 @@ from latent_planner_ros.robot.rotations import matrix_to_quat, matrix_to_rot6d, 
 from latent_planner_ros.robot.state import robot_state
 from latent_planner_ros.robot.torch_fk import TorchFK
 
+DIRECT_SKIP_RAD = 0.02
+"""shortcut first: an end within this max-joint distance [rad] of one whose straight segment from the start
+collided is not tried again (skipping is safe: the seed's own steps are then checked instead)"""
+
 
 @dataclass
 class StepResult:
@@ -111,6 +115,7 @@ class _Search:
         self.best_guide_err = np.full(b, np.inf)  # [rad] smallest max-joint distance to guide_q so far
         self.goal_qs: list[np.ndarray] | None = None  # goal configurations, once searched
         self.finish_tried = np.full(b, -(10**9))  # iteration of each seed's last exact-finish attempt
+        self.direct_refused: list[np.ndarray] = []  # ends (7,) whose straight segment from the start collided
         self.last_improved = np.zeros(b, dtype=int)
         self.iteration = 0
         self.backtraces = 0
@@ -334,8 +339,11 @@ class AmpLs:
             return False
         start = s.paths[b][0][0]
         end = s.q_prev[b] if q_goal is None else q_goal
+        if any(np.abs(end - e).max() < DIRECT_SKIP_RAD for e in s.direct_refused):
+            return False  # the same end as a refused one (finishes from nearby states find the same IK solution)
         seg = interpolate(start, end, self._n_checks(start, end))
         if not self._free(seg):
+            s.direct_refused.append(np.array(end, dtype=float))
             return False
         s.paths[b] = [start[None], seg]
         s.pending[b] = []

@@ -218,3 +218,21 @@ def test_a_segment_is_free_only_if_every_state_passes(shipped_vae, bad_index):
     assert backend.calls == (1 if bad_index in (3, 7, 9) else 2)
     backend.bad = Q_READY - 1.0
     assert planner._free(seg) and planner._free(seg[:1])
+
+
+def test_a_refused_straight_segment_is_not_checked_again_for_the_same_end(shipped_vae):
+    """Finishes from nearby states find the same IK solution: its straight segment from the start, once refused,
+    is skipped (safe: the seed's own steps are checked instead); a different end is checked."""
+    backend = RefuseOne(None)
+    planner = AmpLs(shipped_vae, backend, AmpLsConfig(self_check=False))
+    s = amp_ls._Search(planner, Q_READY, n_seeds=1)
+    end = Q_READY + np.array([0.4, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    backend.bad = interpolate(Q_READY, end, planner._n_checks(Q_READY, end))[5]
+    assert not planner._direct(s, 0, end) and backend.calls > 0
+    calls = backend.calls
+    assert not planner._direct(s, 0, end + 0.5 * amp_ls.DIRECT_SKIP_RAD)
+    assert backend.calls == calls  # skipped
+    backend.bad = Q_READY - 1.0
+    other = end + np.array([0.0, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
+    assert planner._direct(s, 0, other) and backend.calls > calls
+    assert np.array_equal(s.paths[0][-1][-1], other) and s.pending[0] == []
