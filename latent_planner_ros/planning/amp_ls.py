@@ -347,9 +347,7 @@ class AmpLs:
             return False
         s.paths[b] = [start[None], seg]
         s.pending[b] = []
-        s.q_prev[b] = s.q_ok[b] = end
-        with torch.no_grad():
-            s.z_ok[b] = s.z_prev[b]
+        s.q_prev[b] = end
         return True
 
     def _finish_to(self, s: _Search, b: int, q_goal: np.ndarray) -> bool:
