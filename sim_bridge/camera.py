@@ -75,6 +75,10 @@ class DepthCamera:
         points = voxel_downsample(crop(points, np.asarray(c.crop_min), np.asarray(c.crop_max)), c.voxel_size)
         return points.astype(np.float32)
 
+    def pose(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """The camera's optical centre (3,) [m] and camera-to-world rotation (3, 3) in world now."""
+        return data.cam_xpos[self.camera_id].copy(), data.cam_xmat[self.camera_id].reshape(3, 3).copy()
+
     def close(self) -> None:
         """Release the OpenGL context (call from the capturing thread)."""
         if self._renderer is not None:

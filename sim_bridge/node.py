@@ -3,7 +3,8 @@
 Publishes ``joint_states`` (100 Hz), ``/clock``, ``sim/in_collision`` (at the joint-state rate: true if the
 arm touched the scene during the period) and ``sim/min_distance`` (std_msgs/Float64 at the joint-state rate:
 the arm's ground-truth clearance [m] to the scenario objects, the table excluded, negative when
-penetrating, capped at ``sim.DISTANCE_CUTOFF_M``), ``camera/points`` and ``target_pose`` (12.5 Hz); subscribes
+penetrating, capped at ``sim.DISTANCE_CUTOFF_M``), ``camera/points``, ``camera/pose`` (the camera's optical
+centre and orientation, with the cloud's stamp) and ``target_pose`` (12.5 Hz); subscribes
 ``joint_command``; serves ``sim/reset``. Rates are in simulated time; stamps are simulated time (run
 other nodes with ``use_sim_time:=true``). Parameters: :class:`~sim_bridge.sim_config.SimConfig` (see
 ``config/sim.yaml``); they take effect at the next ``sim/reset``, except ``real_time_factor`` (at once).
@@ -75,6 +76,7 @@ class SimNode(Node):
         self._pub_clock = self.create_publisher(Clock, "/clock", 10)
         self._pub_collision = self.create_publisher(Bool, "sim/in_collision", 10)
         self._pub_cloud = self.create_publisher(PointCloud2, "camera/points", 2)
+        self._pub_camera = self.create_publisher(PoseStamped, "camera/pose", 10)
         self._pub_target = self.create_publisher(PoseStamped, "target_pose", 10)
         self._pub_distance = self.create_publisher(Float64, "sim/min_distance", 10)
         self.create_subscription(JointState, "joint_command", self._on_command, 10)
@@ -149,6 +151,9 @@ class SimNode(Node):
         if tick.cloud_due:
             points = self.sim.point_cloud()
             self._pub_cloud.publish(xyz_to_cloud(points, frame_id=self.config.frame_id, stamp=stamp))
+            eye, orientation = self.sim.camera_pose()
+            camera = target_to_pose_stamped(eye, orientation, frame_id=self.config.frame_id, stamp=stamp)
+            self._pub_camera.publish(camera)
             target = self.sim.target_pose()
             if target is not None:
                 self._pub_target.publish(target_to_pose_stamped(*target, frame_id=self.config.frame_id, stamp=stamp))

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from sim_bridge.camera import DepthCamera
 from sim_bridge.command import CommandResult, JointCommand
@@ -138,6 +139,12 @@ class Sim:
     def point_cloud(self) -> np.ndarray:
         """Depth-camera cloud (N, 3) float32 [m] in world, robot points removed (see CameraConfig)."""
         return self._camera.point_cloud(self.data)
+
+    def camera_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """The depth camera's optical centre (3,) [m] and orientation quaternion_xyzw (4,) in world (MuJoCo's
+        camera frame: x right, y up, looking along -z)."""
+        position, rotation = self._camera.pose(self.data)
+        return position, Rotation.from_matrix(rotation).as_quat()
 
     def target_pose(self) -> tuple[np.ndarray, np.ndarray] | None:
         """The scenario target now: position (3,) [m] and quaternion_xyzw (4,), or None."""

@@ -22,7 +22,7 @@ from latent_planner_ros.data.dataset import CollisionData, DatasetConfig, genera
 from latent_planner_ros.data.labels import link_poses
 from latent_planner_ros.data.link_geometry import LABEL_LINKS, link_geometry
 from latent_planner_ros.data.queries import QuerySamplerConfig
-from latent_planner_ros.data.render import scene_cloud
+from latent_planner_ros.data.render import scene_cloud, scene_view
 from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.collision_metrics import auroc, calibration_bins, precision_recall, roc_curve
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
@@ -50,15 +50,16 @@ def geometric_score(q: np.ndarray, tree: cKDTree) -> np.ndarray:
     return -d.reshape(len(q), -1).min(1)
 
 
-def evaluate_family(pred: CollisionPredictor, data: CollisionData, seed: int) -> dict:
-    """Scores of the predictor and the geometric reference on every labelled configuration of `data`."""
+def evaluate_family(pred: CollisionPredictor, data: CollisionData, seed: int, with_origin: bool = True) -> dict:
+    """Scores of the predictor and the geometric reference on every labelled configuration of `data`; the
+    predictor is given each cloud's camera origin unless with_origin is False."""
     rng = np.random.default_rng(seed)
     camera = CameraConfig()
     p, link_p, geo, enc_ms, n_points = [], [], [], [], []
     for i, scene in enumerate(data.scenes):
-        cloud = scene_cloud(scene, rng, camera)
+        cloud, eye = scene_view(scene, rng, camera)
         t0 = time.perf_counter()
-        emb = pred.encode(cloud)
+        emb = pred.encode(cloud, eye if with_origin else None)
         enc_ms.append((time.perf_counter() - t0) * 1000)
         n_points.append(len(cloud))
         q = data.q[data.scene == i]
@@ -196,6 +197,13 @@ def markdown(results: dict, ckpt: str, threshold: float) -> str:
         else:
             cells = [f"{results[f'scenes_{n}']} / {results[f'queries_{n}']}" for n in ("seen", "unseen")]
         lines.append(f"| {label} | {cells[0]} | {cells[1]} |")
+    if "auroc_near_unseen_no_origin" in results:
+        lines += [
+            "",
+            "Without the camera origin (the network's visibility channels off, unseen family, near queries):"
+            f" AUROC {results['auroc_near_unseen_no_origin']:.3f}, precision"
+            f" {results['precision_near_unseen_no_origin']:.3f}, recall {results['recall_near_unseen_no_origin']:.3f}.",
+        ]
     lines += [
         "",
         f"Encoding one cloud: median {results['encode_ms_median']:.1f} ms"
@@ -234,6 +242,14 @@ def main(argv: list[str]) -> int:
     results: dict = {}
     for name in ("seen", "unseen"):
         results.update(summarise(name, data[name], scores[name], args.threshold))
+    if pred.net.config.encoder.visibility:  # the same held-out clouds, their camera origins withheld
+        blind = evaluate_family(pred, data["unseen"], seed=BENCH_SEED + 1, with_origin=False)
+        near, y = data["unseen"].near, data["unseen"].labels
+        prec, rec = precision_recall(blind["p"][near], y[near], args.threshold)
+        results.update(
+            {"auroc_near_unseen_no_origin": auroc(blind["p"][near], y[near]),
+             "precision_near_unseen_no_origin": prec, "recall_near_unseen_no_origin": rec}
+        )  # fmt: skip
     q1, q1000 = query_times(pred, data["seen"])
     results.update(
         {

@@ -43,7 +43,7 @@ def reached(q: np.ndarray, problem: Problem, use_orientation: bool = True) -> tu
 def open_loop(planner: AmpLs, problems: list[Problem], label: str) -> dict:
     rows = []
     for pr in tqdm(problems, desc=f"open loop, {label}", dynamic_ncols=True):
-        res = planner.plan(pr.start_q, pr.goal, pr.cloud if len(pr.cloud) else None)
+        res = planner.plan(pr.start_q, pr.goal, pr.cloud if len(pr.cloud) else None, pr.origin)
         ok, pe, oe = reached(res.q_path[-1], pr, planner.config.use_orientation)
         collided = path_collides(pr, res.q_path)
         rows.append((ok and not collided, collided, res.planning_time_s, pe, res.reason))
@@ -72,7 +72,7 @@ def closed_loop(planner: AmpLs, problems: list[Problem], label: str, ticks: int,
         path = [q]
         scene = pr.cloud if len(pr.cloud) else None
         if scene is not None:
-            planner.backend.set_scene(scene)
+            planner.backend.set_scene(scene, pr.origin)
         for _ in range(ticks):
             t0 = time.perf_counter()
             out = planner.step(

@@ -38,8 +38,11 @@ CLOUD_SEED = 9000
 """seeds the viewpoint and depth noise of problems without a camera"""
 
 
-def problem_cloud(problem: ScenarioProblem, index: int, table: bool, camera: CameraConfig | None = None) -> np.ndarray:
-    """The point cloud (N, 3) float32 [m] in `world` a depth camera sees of the problem's true obstacles.
+def problem_cloud(
+    problem: ScenarioProblem, index: int, table: bool, camera: CameraConfig | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The point cloud (N, 3) float32 [m] in `world` a depth camera sees of the problem's true obstacles, and
+    the camera's optical centre (3,) [m].
 
     The viewpoint is the problem's camera, else drawn from the camera ranges with a seed from `index`;
     the depth noise is seeded by the camera's seed (else `index`), so the cloud is the same on every run.
@@ -54,11 +57,11 @@ def problem_cloud(problem: ScenarioProblem, index: int, table: bool, camera: Cam
         rng = np.random.default_rng(np.random.SeedSequence([CLOUD_SEED, index]))
         pose = sample_camera_pose(rng, cfg)
     if not problem.obstacles and not table:
-        return np.zeros((0, 3), dtype=np.float32)
+        return np.zeros((0, 3), dtype=np.float32), pose[:3, 3].copy()
     depth = render_depth(problem.scene, pose, cfg.intrinsics, table=table)
     depth[depth > cfg.max_depth] = np.inf
     depth = add_depth_noise(depth, rng, cfg.depth_noise, cfg.depth_noise_quadratic)
-    return crop(depth_to_points(depth, pose, cfg.intrinsics), cfg.crop_min, cfg.crop_max)
+    return crop(depth_to_points(depth, pose, cfg.intrinsics), cfg.crop_min, cfg.crop_max), pose[:3, 3].copy()
 
 
 class ForeignLatentBackend:
@@ -73,8 +76,8 @@ class ForeignLatentBackend:
     def __init__(self, backend):
         self.inner = backend
 
-    def set_scene(self, scene) -> None:
-        self.inner.set_scene(scene)
+    def set_scene(self, scene, origin: np.ndarray | None = None) -> None:
+        self.inner.set_scene(scene, origin)
 
     def p_collision(self, q, z):
         own = self.inner.predictor.vae.encode_q(q.float())
@@ -135,7 +138,7 @@ class TableRunner:
         from latent_planner_ros.planning.goal import Goal
 
         goal = Goal.from_pose(problem.goal_position, problem.goal_quaternion_xyzw, POS_TOL, np.radians(ORI_TOL_DEG))
-        cloud = problem_cloud(problem, index, self.table)
+        cloud, origin = problem_cloud(problem, index, self.table)
         judge = PathJudge(problem.scene, self.table)
         start_ee = judge.panda.fk(problem.start).translation
         distance = float(np.linalg.norm(start_ee - goal.position))
@@ -143,7 +146,7 @@ class TableRunner:
         for name, planner in self.planners.items():
             if isinstance(planner, AmpLs):
                 planner.generator.manual_seed(index)  # the extra latent seeds depend on the problem only
-            result = planner.plan(problem.start, goal, cloud)
+            result = planner.plan(problem.start, goal, cloud, origin)
             verdict = judge.judge(result.q_path, goal)
             rows.append(
                 {

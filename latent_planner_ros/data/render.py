@@ -72,10 +72,11 @@ def crop(points: np.ndarray, lo: tuple[float, float, float], hi: tuple[float, fl
     return points[keep]
 
 
-def scene_cloud(
+def scene_view(
     scene: Scene, rng: np.random.Generator, config: CameraConfig | None = None, pose: np.ndarray | None = None
-) -> np.ndarray:
-    """A point cloud (N, 3) float32 in `world` [m] of the scene and table seen from one viewpoint.
+) -> tuple[np.ndarray, np.ndarray]:
+    """A point cloud (N, 3) float32 in `world` [m] of the scene and table seen from one viewpoint, and the
+    camera origin (3,) float [m] it was seen from.
 
     The viewpoint is sampled from the config's ranges unless `pose` (4, 4) is given; depth noise is drawn
     from rng; the cloud is cropped to the config's workspace box.
@@ -85,7 +86,14 @@ def scene_cloud(
     depth = render_depth(scene, pose, cfg.intrinsics)
     depth[depth > cfg.max_depth] = np.inf
     depth = add_depth_noise(depth, rng, cfg.depth_noise, cfg.depth_noise_quadratic)
-    return crop(depth_to_points(depth, pose, cfg.intrinsics), cfg.crop_min, cfg.crop_max)
+    return crop(depth_to_points(depth, pose, cfg.intrinsics), cfg.crop_min, cfg.crop_max), pose[:3, 3].copy()
+
+
+def scene_cloud(
+    scene: Scene, rng: np.random.Generator, config: CameraConfig | None = None, pose: np.ndarray | None = None
+) -> np.ndarray:
+    """The cloud (N, 3) float32 [m] of scene_view, without the camera origin."""
+    return scene_view(scene, rng, config, pose)[0]
 
 
 def voxel_downsample(points: np.ndarray, size: float) -> np.ndarray:

@@ -1,7 +1,7 @@
 """The collision predictor used by the planner: p(collision | scene cloud, latent z) through a frozen VAE.
 
 predictor = CollisionPredictor.load()                 # shipped weights and the VAE they were trained with
-emb = predictor.encode(points)                        # once per cloud (N, 3) -> SceneEmbedding
+emb = predictor.encode(points, eye)                   # once per cloud (N, 3) and camera origin (3,) or None
 p = predictor.p_collision(emb, z)                     # (B,), differentiable w.r.t. z (B, latent)
 """
 
@@ -53,10 +53,16 @@ class CollisionPredictor:
             vae = vae_model
         return cls(net, vae)
 
-    def encode(self, points: np.ndarray | torch.Tensor) -> SceneEmbedding:
-        """Embed one cloud (N, 3) float [m] in `world` (robot points removed)."""
+    @property
+    def uses_origin(self) -> bool:
+        """Whether the network reads the camera origin with each cloud (its visibility channels)."""
+        return self.net.config.encoder.visibility
+
+    def encode(self, points: np.ndarray | torch.Tensor, eye: np.ndarray | None = None) -> SceneEmbedding:
+        """Embed one cloud (N, 3) float [m] in `world` (robot points removed), seen from the camera origin
+        eye (3,) [m] in `world` when known (None: unknown; ignored by a network without visibility channels)."""
         with torch.no_grad():
-            return self.net.encoder.encode(points)
+            return self.net.encoder.encode(points, eye)
 
     def embedding_from_points(self, centres: np.ndarray, features: np.ndarray) -> SceneEmbedding:
         """Rebuild an embedding received as voxel centres (V, 3) and features (V, C); ValueError if off-grid."""

@@ -14,6 +14,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from latent_planner_ros.models import visibility as vis
+
 
 @dataclass(frozen=True)
 class SceneEncoderConfig:
@@ -31,6 +33,13 @@ class SceneEncoderConfig:
     """per-point (and max-pooled per-voxel) feature width"""
     conv_channels: tuple[int, ...] = (32, 32, 32, 64)
     """output channels of the 3x3x3 convolutions; the last one is the embedding width"""
+    visibility: bool = False
+    """append what the camera saw of each voxel (free / hidden behind a surface; models/visibility.py),
+    which needs the camera origin with each cloud"""
+    visibility_bin: float = 0.02
+    """width of the direction bins (tangent units, about radians) of the visibility channels"""
+    visibility_margin_m: float = 0.03
+    """a voxel sample within this range [m] of the observed surface on its ray is neither free nor hidden"""
 
     def __post_init__(self) -> None:
         extent = np.asarray(self.bounds_max) - np.asarray(self.bounds_min)
@@ -124,7 +133,7 @@ class SceneEncoder(nn.Module):
             nn.ReLU(),
         )
         convs: list[nn.Module] = []
-        c_in = config.point_features + 1
+        c_in = config.point_features + 1 + (vis.CHANNELS if config.visibility else 0)
         for i, c_out in enumerate(config.conv_channels):
             convs.append(nn.Conv3d(c_in, c_out, 3, padding=1))
             if i < len(config.conv_channels) - 1:
@@ -133,14 +142,26 @@ class SceneEncoder(nn.Module):
         self.convs = nn.Sequential(*convs)
         self.register_buffer("bounds_min", torch.tensor(config.bounds_min, dtype=torch.float32), persistent=False)
         self.register_buffer("grid_dims", torch.tensor(config.grid_shape), persistent=False)
+        lo, hi = torch.tensor(config.bounds_min), torch.tensor(config.bounds_max)
+        self.register_buffer("centre", ((lo + hi) / 2).to(torch.float32), persistent=False)
+        self.register_buffer(
+            "samples", vis.sub_voxel_points(self.bounds_min, config.voxel_size, config.grid_shape), persistent=False
+        )
 
-    def forward(self, points: torch.Tensor, batch: torch.Tensor | None = None, n_batch: int = 1) -> torch.Tensor:
+    def forward(
+        self,
+        points: torch.Tensor,
+        batch: torch.Tensor | None = None,
+        n_batch: int = 1,
+        eyes: torch.Tensor | None = None,
+    ) -> torch.Tensor:
         """Encode clouds.
 
         Args:
             points: (N, 3) points [m] in `world` of all clouds together; points outside the bounds are ignored.
             batch: (N,) int64 index of the cloud each point belongs to (default: all in cloud 0).
             n_batch: number of clouds B.
+            eyes: (B, 3) camera origins [m] in `world` (a NaN row or None: unknown); used with `visibility`.
         Returns:
             (B, C, nx, ny, nz) voxel features.
         """
@@ -149,6 +170,11 @@ class SceneEncoder(nn.Module):
         n_vox = nx * ny * nz
         points = points.to(self.bounds_min.dtype)
         batch = torch.zeros(len(points), dtype=torch.long, device=points.device) if batch is None else batch
+        if cfg.visibility:
+            eyes = torch.full((n_batch, 3), float("nan")) if eyes is None else eyes.to(points.dtype).reshape(-1, 3)
+            seen = vis.visibility_grid(
+                points, batch, eyes, self.samples, self.centre, cfg.visibility_bin, cfg.visibility_margin_m
+            )
         cell = (points - self.bounds_min) / cfg.voxel_size
         idx = torch.floor(cell).long()
         inside = torch.all((idx >= 0) & (idx < self.grid_dims), dim=1)
@@ -161,11 +187,12 @@ class SceneEncoder(nn.Module):
             0, flat[:, None].expand(-1, cfg.point_features), feats, "amax", include_self=True
         )
         count = torch.bincount(flat, minlength=n_batch * n_vox).to(feats.dtype)
-        grid = torch.cat([pooled, torch.log1p(count)[:, None]], 1)
+        grid = torch.cat([pooled, torch.log1p(count)[:, None]] + ([seen.reshape(-1, 3)] if cfg.visibility else []), 1)
         grid = grid.reshape(n_batch, nx, ny, nz, -1).permute(0, 4, 1, 2, 3)
         return self.convs(grid.contiguous())
 
-    def encode(self, points: np.ndarray | torch.Tensor) -> SceneEmbedding:
-        """Embedding of one cloud (N, 3) [m] in `world`."""
+    def encode(self, points: np.ndarray | torch.Tensor, eye: np.ndarray | None = None) -> SceneEmbedding:
+        """Embedding of one cloud (N, 3) [m] in `world`, seen from the camera origin eye (3,) [m] if known."""
         p = torch.as_tensor(np.asarray(points, dtype=np.float32) if not torch.is_tensor(points) else points)
-        return SceneEmbedding(self.forward(p.reshape(-1, 3).to(self.bounds_min.device))[0], self.config)
+        e = None if eye is None else torch.as_tensor(np.asarray(eye, dtype=np.float32).reshape(1, 3))
+        return SceneEmbedding(self.forward(p.reshape(-1, 3).to(self.bounds_min.device), eyes=e)[0], self.config)

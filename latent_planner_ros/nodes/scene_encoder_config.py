@@ -19,6 +19,8 @@ class SceneEncoderNodeConfig:
     """[s] without any cloud for this long, the status says stale"""
     status_rate_hz: float = 2.0
     """status publishing rate [Hz]"""
+    origin_max_age_s: float = 1.0
+    """[s] a camera/pose stamped further than this from a cloud's stamp is not used with it; 0 = any age"""
 
     def __post_init__(self) -> None:
         if not isinstance(self.checkpoint, str):
@@ -27,3 +29,4 @@ class SceneEncoderNodeConfig:
         check_number("downsample_voxel", self.downsample_voxel, 0.0, 0.5)
         check_number("stale_after_s", self.stale_after_s, 0.0, 3600.0, open_low=True)
         check_number("status_rate_hz", self.status_rate_hz, 0.0, 100.0, open_low=True)
+        check_number("origin_max_age_s", self.origin_max_age_s, 0.0, 3600.0)

@@ -111,9 +111,13 @@ class StatusReport:
     values: dict
 
 
-def _cloud_values(points_in: int, finite=0, inside=0, used=0, voxel_m=0.0, encode_ms=0.0) -> dict:
-    """Status key-values of the last cloud: point counts, downsampling voxel [m], encoding time [ms]."""
+def _cloud_values(
+    points_in: int, finite=0, inside=0, used=0, voxel_m=0.0, encode_ms=0.0, origin="none (no cloud encoded)"
+) -> dict:
+    """Status key-values of the last cloud: point counts, downsampling voxel [m], encoding time [ms], and
+    whether it was encoded with its camera origin."""
     return {
+        "camera_origin": origin,
         "points_in": points_in,
         "points_finite": finite,
         "points_inside": inside,
@@ -139,13 +143,14 @@ class SceneInputMonitor:
         self.refused = 0
         self.values = _cloud_values(points_in=0)
 
-    def on_encoded(self, now: float, cloud: PreparedCloud, encode_ms: float) -> None:
-        """A cloud was encoded (and published) in encode_ms [ms]."""
+    def on_encoded(self, now: float, cloud: PreparedCloud, encode_ms: float, origin: str = "not used") -> None:
+        """A cloud was encoded (and published) in encode_ms [ms]; origin says whether with its camera origin."""
         self.last_arrival = now
         self.encoded += 1
         self.values = _cloud_values(
-            cloud.points_in, cloud.points_finite, cloud.points_inside, cloud.points_used, cloud.voxel_m, encode_ms
-        )
+            cloud.points_in, cloud.points_finite, cloud.points_inside, cloud.points_used, cloud.voxel_m, encode_ms,
+            origin,
+        )  # fmt: skip
         if cloud.points_used == 0:
             self.state, self.level = "empty", WARN
             self.message = (

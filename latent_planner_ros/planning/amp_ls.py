@@ -392,8 +392,11 @@ class AmpLs:
         return q_first if self._check_segments([seg])[0].any() else q_last
 
     # -- open loop ------------------------------------------------------------------------------------
-    def plan(self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None) -> PlanResult:
-        """Plan from start_q (7,) [rad] to `goal`; `cloud` (N, 3) [m] is the observed scene.
+    def plan(
+        self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None, origin: np.ndarray | None = None
+    ) -> PlanResult:
+        """Plan from start_q (7,) [rad] to `goal`; `cloud` (N, 3) [m] is the observed scene, seen from the camera
+        origin (3,) [m] if known.
 
         The result's info["start_refused"] says whether the start itself failed the hard check (see escape_rad).
         """
@@ -403,7 +406,7 @@ class AmpLs:
         if start_q.shape != (7,) or not np.all(np.isfinite(start_q)):
             raise ValueError(f"start_q must be 7 finite joint positions, got {start_q!r}")
         if cfg.use_collision:
-            self.backend.set_scene(np.zeros((0, 3)) if cloud is None else cloud)
+            self.backend.set_scene(np.zeros((0, 3)) if cloud is None else cloud, origin)
         # a start refused by the (conservative) hard check: let the arm move out of it (escape_rad)
         self._escape_from = None
         start_refused = bool(self._check_segments([start_q[None]])[0][0])

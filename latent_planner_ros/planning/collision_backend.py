@@ -15,9 +15,10 @@ import torch
 class CollisionBackend(Protocol):
     name: str
 
-    def set_scene(self, scene) -> None:
+    def set_scene(self, scene, origin: np.ndarray | None = None) -> None:
         """Prepare for a new observation: a point cloud (N, 3) [m] in `world` (robot points removed) for
-        geometric backends, a scene embedding for the learned one."""
+        geometric backends, a scene embedding (or a cloud) for the learned one; origin (3,) [m]: the camera's
+        optical centre the cloud was seen from, if known (read by the learned backend only)."""
         ...
 
     def p_collision(self, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
@@ -34,7 +35,7 @@ class NoCollision:
 
     name = "none"
 
-    def set_scene(self, scene) -> None:
+    def set_scene(self, scene, origin: np.ndarray | None = None) -> None:
         pass
 
     def p_collision(self, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:

@@ -45,8 +45,9 @@ class CylinderBackend:
         """The shipped classifier (or `stem`); raises CheckpointError for a missing or bad checkpoint."""
         return cls(load_classifier(stem)[0], **kwargs)
 
-    def set_scene(self, scene: np.ndarray) -> None:
-        """Cylinders (K, 4) as (x, y, h, r) [m]; an empty array (any shape) means no obstacles. ValueError if bad."""
+    def set_scene(self, scene: np.ndarray, origin: np.ndarray | None = None) -> None:
+        """Cylinders (K, 4) as (x, y, h, r) [m]; an empty array (any shape) means no obstacles. ValueError if bad.
+        (origin is not used.)"""
         self.cylinders = validate_cylinders(scene)
         self._o = torch.as_tensor(self.cylinders, dtype=torch.float32)
         self._labeler = CollisionLabeler(cylinder_scene(self.cylinders)) if len(self.cylinders) else None

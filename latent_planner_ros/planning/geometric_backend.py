@@ -58,8 +58,8 @@ class GeometricBackend:
         self._tree = cKDTree(cloud) if len(cloud) else None
         return cloud
 
-    def set_scene(self, cloud: np.ndarray) -> None:
-        """Use cloud (N, 3) [m] for both the cost (distance field) and the hard check."""
+    def set_scene(self, cloud: np.ndarray, origin: np.ndarray | None = None) -> None:
+        """Use cloud (N, 3) [m] for both the cost (distance field) and the hard check (origin is not used)."""
         cloud = self.set_check_cloud(cloud)
         res = self.config.resolution
         shape = np.ceil((self._hi - self._lo) / res).astype(int) + 1

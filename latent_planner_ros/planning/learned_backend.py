@@ -41,14 +41,17 @@ class LearnedBackend:
         return cls(CollisionPredictor.load(stem), **kwargs)
 
     # -- scene ------------------------------------------------------------------------------------
-    def set_scene(self, scene: SceneEmbedding | np.ndarray) -> None:
-        """A scene embedding (from the scene_encoder node), or a raw cloud (N, 3) [m] encoded here."""
+    def set_scene(self, scene: SceneEmbedding | np.ndarray, origin: np.ndarray | None = None) -> None:
+        """A scene embedding (from the scene_encoder node), or a raw cloud (N, 3) [m] encoded here, seen from
+        the camera origin (3,) [m] in `world` if known (a non-finite origin counts as unknown)."""
         if isinstance(scene, SceneEmbedding):
             self.embedding = scene
             return
         cloud = np.asarray(scene, dtype=np.float32).reshape(-1, 3)
         cloud = cloud[np.all(np.isfinite(cloud), axis=1)]
-        self.embedding = self.predictor.encode(cloud)
+        if origin is not None and not np.all(np.isfinite(np.asarray(origin, dtype=float))):
+            origin = None
+        self.embedding = self.predictor.encode(cloud, origin)
         self.set_cloud(cloud)
 
     def set_cloud(self, cloud: np.ndarray) -> None:

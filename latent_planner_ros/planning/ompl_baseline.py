@@ -114,8 +114,11 @@ class OmplPlanner:
         return planner
 
     # -- planning -------------------------------------------------------------------------------------
-    def plan(self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None) -> PlanResult:
-        """Plan from start_q (7,) [rad] to `goal` around the occupied voxels of cloud (N, 3) [m] in `world`.
+    def plan(
+        self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None, origin: np.ndarray | None = None
+    ) -> PlanResult:
+        """Plan from start_q (7,) [rad] to `goal` around the occupied voxels of cloud (N, 3) [m] in `world`
+        (the camera origin is not used: the occupancy map marks observed points only).
 
         Raises:
             ValueError: start_q is not 7 finite numbers (a caller's bug; planning failures return a result).

@@ -176,8 +176,11 @@ class PotentialFieldPlanner:
         return (dq / scale if scale > 1.0 else dq), dist, least
 
     # -- planning -------------------------------------------------------------------------------------------
-    def plan(self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None) -> PlanResult:
-        """Move from start_q (7,) [rad] towards goal.position [m]; `cloud` is ignored (the obstacles are known).
+    def plan(
+        self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None, origin: np.ndarray | None = None
+    ) -> PlanResult:
+        """Move from start_q (7,) [rad] towards goal.position [m]; `cloud` and `origin` are ignored (the obstacles
+        are known).
 
         Raises:
             ValueError: start_q is not 7 finite numbers (a caller's bug; planning failures return a result).

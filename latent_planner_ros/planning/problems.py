@@ -13,7 +13,7 @@ import numpy as np
 
 from latent_planner_ros.data.camera import CameraConfig
 from latent_planner_ros.data.labels import CollisionLabeler
-from latent_planner_ros.data.render import scene_cloud
+from latent_planner_ros.data.render import scene_view
 from latent_planner_ros.data.scene import Scene
 from latent_planner_ros.data.scene_generator import generate_scene
 from latent_planner_ros.planning.goal import Goal
@@ -30,6 +30,7 @@ class Problem:
         goal: target pose with tolerances.
         goal_q: (7,) a collision-free configuration reaching the goal (not given to planners).
         cloud: (N, 3) [m] observed points in `world` (empty in free space).
+        origin: (3,) [m] the camera's optical centre the cloud was seen from (None in free space).
         scene: the obstacles (None in free space), for exact collision checks of the result.
     """
 
@@ -38,6 +39,7 @@ class Problem:
     goal_q: np.ndarray
     cloud: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.float32))
     scene: Scene | None = None
+    origin: np.ndarray | None = None
 
 
 def _goal_of(q: np.ndarray, pos_tol: float, ori_tol: float) -> Goal:
@@ -76,8 +78,8 @@ def cluttered_problems(
         if len(free) < 2:
             continue
         start, goal_q = free[0], free[1]
-        cloud = scene_cloud(scene, rng, camera)
-        out.append(Problem(start, _goal_of(goal_q, pos_tol, ori_tol), goal_q, cloud, scene))
+        cloud, origin = scene_view(scene, rng, camera)
+        out.append(Problem(start, _goal_of(goal_q, pos_tol, ori_tol), goal_q, cloud, scene, origin))
     return out
 
 

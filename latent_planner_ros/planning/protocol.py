@@ -15,6 +15,7 @@ class Planner(Protocol):
 
     name: str
 
-    def plan(self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray) -> PlanResult:
-        """start_q (7,) [rad]; cloud (N, 3) [m] in `world` (robot points removed)."""
+    def plan(self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray, origin: np.ndarray | None = None) -> PlanResult:
+        """start_q (7,) [rad]; cloud (N, 3) [m] in `world` (robot points removed); origin (3,) [m] in `world`:
+        the camera's optical centre the cloud was seen from, if known (only the learned backend reads it)."""
         ...

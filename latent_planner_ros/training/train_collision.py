@@ -28,6 +28,7 @@ from latent_planner_ros.data.dataset import CollisionData, DatasetConfig, genera
 from latent_planner_ros.models.checkpoint import CheckpointError, load_checkpoint
 from latent_planner_ros.models.collision_io import file_sha256
 from latent_planner_ros.models.collision_net_config import CollisionNetConfig
+from latent_planner_ros.models.scene_encoder import SceneEncoderConfig
 from latent_planner_ros.models.vae_io import load_vae, shipped_vae_path
 from latent_planner_ros.training.train_collision_config import TrainCollisionConfig
 from latent_planner_ros.training.train_collision_trainer import CollisionTrainer, EvalSet
@@ -52,6 +53,11 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, TrainCollisionConfi
     p.add_argument("--generate", type=int, metavar="N", help="generate N training scenes into --data, then exit")
     p.add_argument("--workers", type=int, default=1, help="processes for --generate")
     p.add_argument("--data-seed", type=int, default=0, help="seed of the generated training split")
+    p.add_argument(
+        "--no-visibility",
+        action="store_true",
+        help="a new network without the visibility channels (it then needs no camera origin with its clouds)",
+    )
     defaults = TrainCollisionConfig()
     for f in fields(TrainCollisionConfig):
         value = getattr(defaults, f.name)
@@ -100,7 +106,9 @@ def train(args: argparse.Namespace, config: TrainCollisionConfig, argv: list[str
         print(f"train collision: no training shards in {config.data}; run with --generate N first", file=sys.stderr)
         return 2
     args.out.mkdir(parents=True, exist_ok=True)
-    net_config = CollisionNetConfig(latent=vae.config.latent)
+    net_config = CollisionNetConfig(
+        encoder=SceneEncoderConfig(visibility=not args.no_visibility), latent=vae.config.latent
+    )
     resume = args.resume and (args.out / "last.safetensors").exists()
     if resume:
         _, state = load_checkpoint(args.out / "last")

@@ -41,6 +41,9 @@ class TrainCollisionConfig:
     """range of the training camera's vertical field of view [deg] (intrinsics augmentation)"""
     image_scale: tuple[float, float] = (0.8, 1.4)
     """range of the training camera's image size relative to 192 x 144 pixels"""
+    unknown_eye_prob: float = 0.1
+    """probability that a training cloud's camera origin is withheld (a network with visibility channels then
+    still works, less well, for clouds whose origin is unknown)"""
     threshold: float = 0.3
     """decision threshold on p(collision) for the reported precision/recall (the planner's gamma_col)"""
     eval_every: int = 300

@@ -13,7 +13,7 @@ import torch.nn.functional as F
 
 from latent_planner_ros.data.camera import CameraConfig, CameraIntrinsics
 from latent_planner_ros.data.dataset import CollisionData
-from latent_planner_ros.data.render import scene_cloud, voxel_downsample
+from latent_planner_ros.data.render import scene_view, voxel_downsample
 from latent_planner_ros.models.checkpoint import load_checkpoint, load_state_into, save_checkpoint
 from latent_planner_ros.models.collision_io import save_collision_net
 from latent_planner_ros.models.collision_metrics import auroc, precision_recall
@@ -24,12 +24,14 @@ from latent_planner_ros.training.train_collision_config import TrainCollisionCon
 
 
 class EvalSet:
-    """Fixed validation scenes: one cloud per scene (seeded viewpoint) and all their labelled configurations."""
+    """Fixed validation scenes: one cloud per scene (seeded viewpoint) with its camera origin, and all their
+    labelled configurations."""
 
     def __init__(self, data: CollisionData, seed: int, camera: CameraConfig):
         rng = np.random.default_rng(seed)
         self.data = data
-        self.clouds = [scene_cloud(s, rng, camera) for s in data.scenes]
+        views = [scene_view(s, rng, camera) for s in data.scenes]
+        self.clouds, self.eyes = [v[0] for v in views], [v[1] for v in views]
 
 
 class CollisionTrainer:
@@ -93,15 +95,18 @@ class CollisionTrainer:
         pool = self._uniform[scene] if len(self._uniform[scene]) else self._rows[scene]
         return np.concatenate([near, self.rng.choice(pool, n - n_near)])
 
-    def _cloud(self, scene: int) -> np.ndarray:
-        """A training cloud of a scene: random viewpoint, randomised intrinsics and density."""
+    def _cloud(self, scene: int) -> tuple[np.ndarray, np.ndarray]:
+        """A training cloud (N, 3) of a scene (random viewpoint, randomised intrinsics and density) and its
+        camera origin (3,) [m], all NaN with probability `unknown_eye_prob`."""
         c, rng = self.config, self.rng
         scale = rng.uniform(*c.image_scale)
         intrinsics = CameraIntrinsics.from_fov(int(192 * scale), int(144 * scale), rng.uniform(*c.fovy_deg))
-        pts = scene_cloud(self.data.scenes[scene], rng, replace(self.camera, intrinsics=intrinsics))
+        pts, eye = scene_view(self.data.scenes[scene], rng, replace(self.camera, intrinsics=intrinsics))
+        if rng.random() < c.unknown_eye_prob:
+            eye = np.full(3, np.nan)
         if rng.random() < c.voxel_downsample_prob:
-            return voxel_downsample(pts, rng.uniform(*c.voxel_downsample_size))
-        return pts[rng.random(len(pts)) < rng.uniform(*c.point_keep)]
+            return voxel_downsample(pts, rng.uniform(*c.voxel_downsample_size)), eye
+        return pts[rng.random(len(pts)) < rng.uniform(*c.point_keep)], eye
 
     def _tensors(
         self, rows: np.ndarray, data: CollisionData | None = None
@@ -129,9 +134,11 @@ class CollisionTrainer:
         c = self.config
         s, m = c.scenes_per_step, c.queries_per_scene
         scenes = self.rng.choice(len(self.data.scenes), s, replace=len(self.data.scenes) < s)
-        clouds = [torch.as_tensor(self._cloud(i)) for i in scenes]
+        views = [self._cloud(i) for i in scenes]
+        clouds = [torch.as_tensor(v[0]) for v in views]
         batch = torch.cat([torch.full((len(p),), k, dtype=torch.long) for k, p in enumerate(clouds)])
-        grid = self.net.encoder(torch.cat(clouds).to(self.device), batch.to(self.device), s)
+        eyes = torch.as_tensor(np.stack([v[1] for v in views]), dtype=torch.float32, device=self.device)
+        grid = self.net.encoder(torch.cat(clouds).to(self.device), batch.to(self.device), s, eyes)
         n_hard = int(round(m * c.hard_fraction))
         rows = np.stack([self._pick(i, m - n_hard) for i in scenes])
         if n_hard:
@@ -165,9 +172,10 @@ class CollisionTrainer:
         self.net.eval()
         d = ev.data
         ps, losses = [], []
-        for i, cloud in enumerate(ev.clouds):
+        for i, (cloud, eye) in enumerate(zip(ev.clouds, ev.eyes, strict=True)):
             rows = np.flatnonzero(d.scene == i)[None]
-            grid = self.net.encoder(torch.as_tensor(cloud).to(self.device))
+            eyes = torch.as_tensor(eye, dtype=torch.float32, device=self.device)[None]
+            grid = self.net.encoder(torch.as_tensor(cloud).to(self.device), eyes=eyes)
             q, z, y, y_link = self._tensors(rows, d)
             per, logit = self.losses(self.net.link_logits(grid, q, z), y, y_link)
             ps.append(torch.sigmoid(logit)[0].cpu().numpy())

@@ -30,6 +30,7 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
+from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import PointCloud2
 from msg_adapters import cloud_to_embedding, xyz_to_cloud
 
@@ -43,6 +44,7 @@ node.create_subscription(
 )
 node.create_subscription(DiagnosticArray, "scene_encoder/status", lambda m: statuses.append(m.status[0]), 50)
 pub = node.create_publisher(PointCloud2, "camera/points", 10)
+pose_pub = node.create_publisher(PoseStamped, "camera/pose", 10)
 
 def spin_until(cond, timeout):
     end = time.monotonic() + timeout
@@ -105,7 +107,33 @@ results["max_points"] = set_param("max_points", ParameterType.PARAMETER_INTEGER,
 big = rng.uniform([0.0, -0.6, 0.0], [1.0, 0.6, 0.5], size=(20000, 3)).astype(np.float32)
 send("big", xyz_to_cloud(big), 108, "downsampled from 20000", True)
 
-for sec in (101, 105, 106, 107, 108):
+def with_pose(name, pose_xyz, pose_sec, cloud, sec, expect):
+    # publish the camera pose and then the cloud until the status shows `expect` for that cloud
+    pose = PoseStamped()
+    pose.header.frame_id, pose.header.stamp = "world", Time(sec=pose_sec)
+    pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = pose_xyz
+    pose.pose.orientation.w = 1.0
+    msg = xyz_to_cloud(cloud)
+    msg.header.stamp = Time(sec=sec)
+    def done():
+        if not statuses or f"encoded {len(cloud)} points" not in statuses[-1].message:
+            return False
+        return expect in status_dict(statuses[-1])["values"]["camera_origin"] and (sec, "world") in embeddings
+    for _ in range(40):
+        pose_pub.publish(pose)
+        spin_until(lambda: False, 0.1)
+        pub.publish(msg)
+        if spin_until(done, 0.5):
+            break
+    assert done(), f"{name}: last status {status_dict(statuses[-1]) if statuses else None!r}"
+    results[name] = status_dict(statuses[-1])
+
+seen = inside[:300].astype(np.float32)
+np.save(f"{out_dir}/seen.npy", seen)
+with_pose("origin_known", (1.6, 0.7, 0.9), 201, seen, 201, "known")
+with_pose("origin_refused", (float("nan"), 0.0, 1.0), 201, inside[:301], 203, "unknown: newest camera/pose is 2.00 s")
+
+for sec in (101, 105, 106, 107, 108, 201):
     c, f = cloud_to_embedding(embeddings[(sec, "world")])
     np.savez(f"{out_dir}/embedding_{sec}.npz", centres=c, features=f)
 results["embedding_stamps"] = sorted(s for s, _ in embeddings)
@@ -140,8 +168,8 @@ def node_cmd(*ros_args: str) -> list[str]:
 
 @pytest.fixture
 def checkpoint(tmp_path) -> Path:
-    """An untrained collision net with the default (shipped) encoder grid, small elsewhere."""
-    net = CollisionNet(CollisionNetConfig(encoder=SceneEncoderConfig(), hidden=(16,)))
+    """An untrained collision net with the default (shipped) encoder grid and visibility channels, small elsewhere."""
+    net = CollisionNet(CollisionNetConfig(encoder=SceneEncoderConfig(visibility=True), hidden=(16,)))
     save_collision_net(tmp_path / "collision", net, {"note": "untrained, for tests"})
     return tmp_path / "collision"
 
@@ -193,7 +221,7 @@ def test_scene_encoder_node_end_to_end(tmp_path, checkpoint):
         assert result[name]["level"] == 1 and result[name]["values"]["points_used"] == "0", result[name]
     assert result["valid_again"]["level"] == 0
     # nothing was published for the refused clouds; empty clouds are encoded as an empty scene
-    assert result["embedding_stamps"] == [101, 105, 106, 107, 108]
+    assert result["embedding_stamps"] == [101, 105, 106, 107, 108, 201, 203]
     with torch.no_grad():
         empty = encoder.encode(np.zeros((0, 3), np.float32))
     got = np.load(tmp_path / "embedding_107.npz")
@@ -207,6 +235,20 @@ def test_scene_encoder_node_end_to_end(tmp_path, checkpoint):
     assert result["max_points"][0]
     big = result["big"]
     assert big["level"] == 0 and int(big["values"]["points_used"]) <= 1000 and big["values"]["points_in"] == "20000"
+    # the camera origin: encoded with the pose of the same stamp; a refused pose keeps the previous one,
+    # which is then too far in time from the next cloud
+    assert result["valid"]["values"]["camera_origin"].startswith("unknown: no camera/pose")
+    seen = np.load(tmp_path / "seen.npy")
+    with torch.no_grad():
+        expected = encoder.encode(seen, np.array([1.6, 0.7, 0.9]))
+        blind = encoder.encode(seen)
+    got = np.load(tmp_path / "embedding_201.npz")
+    rebuilt = SceneEmbedding.from_points(got["centres"], got["features"], encoder.config)
+    torch.testing.assert_close(rebuilt.features, expected.features, atol=1e-5, rtol=1e-5)
+    assert not torch.allclose(rebuilt.features, blind.features, atol=1e-4)
+    assert result["origin_known"]["values"]["camera_origin"] == "known"
+    assert "camera/pose refused" in result["origin_refused"]["values"]["last_error"]
+    assert result["origin_refused"]["level"] == 0, "a refused pose does not stop the encoding"
     assert result["stale"]["level"] >= 1 and result["stale"]["values"]["state"] == "stale"
 
 

@@ -69,3 +69,18 @@ def test_hard_check_refuses_observed_points_inside_the_arm_even_if_the_network_d
     assert not no_geo.check(q).any()
     always = _backend(threshold=1e-9, geometric_check=False)
     assert always.check(q).all()
+
+
+def test_a_cloud_is_encoded_with_its_camera_origin_and_a_non_finite_origin_counts_as_unknown(rng):
+    torch.manual_seed(0)
+    config = CollisionNetConfig(encoder=SceneEncoderConfig(visibility=True, conv_channels=(8, 6)), hidden=(16,))
+    vae = RobotStateVAE(VaeConfig(hidden=16, layers=1))
+    backend = LearnedBackend(CollisionPredictor(CollisionNet(config), vae))
+    cloud = rng.uniform([0.3, -0.2, 0.0], [0.5, 0.2, 0.3], size=(500, 3)).astype(np.float32)
+    backend.set_scene(cloud, np.array([1.6, 0.7, 0.9]))
+    seen = backend.embedding.features.clone()
+    backend.set_scene(cloud)
+    blind = backend.embedding.features.clone()
+    backend.set_scene(cloud, np.array([np.nan, 0.0, 1.0]))
+    assert not torch.allclose(seen, blind)
+    torch.testing.assert_close(backend.embedding.features, blind)

@@ -12,8 +12,10 @@ import time
 from pathlib import Path
 
 import imageio.v3 as iio
+import numpy as np
 import pytest
 import yaml
+from scipy.spatial.transform import Rotation
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -32,9 +34,10 @@ from msg_adapters import cloud_to_xyz, joint_state_to_q, q_to_joint_state
 
 rclpy.init()
 node = rclpy.create_node("sim_probe")
-got = {"joints": [], "clouds": [], "clock": [], "collision": []}
+got = {"joints": [], "clouds": [], "clock": [], "collision": [], "camera": []}
 node.create_subscription(JointState, "joint_states", lambda m: got["joints"].append((time.monotonic(), m)), 50)
 node.create_subscription(PointCloud2, "camera/points", lambda m: got["clouds"].append(m), 5)
+node.create_subscription(PoseStamped, "camera/pose", lambda m: got["camera"].append(m), 5)
 node.create_subscription(Clock, "/clock", lambda m: got["clock"].append(m), 50)
 node.create_subscription(Bool, "sim/in_collision", lambda m: got["collision"].append(m.data), 50)
 command = node.create_publisher(JointState, "joint_command", 10)
@@ -66,6 +69,11 @@ assert spin_until(lambda: len(got["clouds"]) > 0, 10.0), "no camera/points"
 cloud = got["clouds"][-1]
 points = cloud_to_xyz(cloud)
 out["cloud"] = {"n": len(points), "frame": cloud.header.frame_id, "zmin": float(points[:, 2].min())}
+assert spin_until(lambda: any(p.header.stamp == cloud.header.stamp for p in got["camera"]), 5.0), "no camera/pose"
+pose = next(p for p in got["camera"] if p.header.stamp == cloud.header.stamp)
+o = pose.pose.orientation
+out["camera"] = {"frame": pose.header.frame_id, "position": [pose.pose.position.x, pose.pose.position.y,
+                 pose.pose.position.z], "quaternion_xyzw": [o.x, o.y, o.z, o.w]}
 out["clock_msgs"] = len(got["clock"])
 out["collision_before"] = any(got["collision"])
 
@@ -167,6 +175,13 @@ def test_sim_node_end_to_end(tmp_path):
     assert result["has_velocity"] and max(abs(a - b) for a, b in zip(result["q"], READY, strict=True)) < 1e-3
     assert result["cloud"]["frame"] == "world" and result["cloud"]["n"] > 1000
     assert result["cloud"]["zmin"] > -0.03
+    # camera/pose with the cloud's stamp: the configured optical centre, looking (along -z) at look_at
+    camera = yaml.safe_load((REPO / "config" / "sim.yaml").read_text())["sim"]["ros__parameters"]["camera"]
+    assert result["camera"]["frame"] == "world"
+    np.testing.assert_allclose(result["camera"]["position"], camera["position"], atol=1e-5)
+    view = Rotation.from_quat(result["camera"]["quaternion_xyzw"]).apply([0.0, 0.0, -1.0])
+    towards = np.subtract(camera["look_at"], camera["position"])
+    np.testing.assert_allclose(view, towards / np.linalg.norm(towards), atol=1e-6)
     assert result["clock_msgs"] > 100
     assert not result["collision_before"]
     assert result["collision_after_reach"]
