@@ -30,19 +30,18 @@ Beyond the seed, `plan` (not `step`) by default (each a switch of AmpLsConfig, m
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 import torch
 
-from latent_planner_ros.models.geco import Geco, GecoConfig
 from latent_planner_ros.models.vae import RobotStateVAE
+from latent_planner_ros.planning.amp_ls_additions import PlanAdditions
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls_search import LatentSearch, StepResult
 from latent_planner_ros.planning.collision_backend import CollisionBackend
 from latent_planner_ros.planning.goal import Goal
-from latent_planner_ros.planning.ik import IkConfig, goal_configurations, solve_ik
+from latent_planner_ros.planning.ik import IkConfig
 from latent_planner_ros.planning.result import PlanResult
-from latent_planner_ros.planning.shortcut import shortcut
 from latent_planner_ros.planning.time_parameterisation import interpolate, time_parameterise
 from latent_planner_ros.robot.collision import CollisionChecker
 from latent_planner_ros.robot.limits import Q_MAX, Q_MIN, Q_READY, V_MAX
@@ -51,79 +50,8 @@ from latent_planner_ros.robot.rotations import matrix_to_quat, matrix_to_rot6d, 
 from latent_planner_ros.robot.state import robot_state
 from latent_planner_ros.robot.torch_fk import TorchFK
 
-DIRECT_SKIP_RAD = 0.02
-"""shortcut first: an end within this max-joint distance [rad] of one whose straight segment from the start
-collided is not tried again (skipping is safe: the seed's own steps are then checked instead)"""
 
-
-@dataclass
-class StepResult:
-    """One closed-loop tick.
-
-    Attributes:
-        command: (7,) next joint target [rad], within limits and reachable at the velocity limits in dt.
-        accepted: a new collision-checked state was accepted this tick.
-        reached: the last accepted state and the measured arm are both within tolerance of the goal.
-        pos_err_m, ori_err_rad: error of the last accepted state to the goal.
-        p_collision: collision probability of the current decoded state.
-        reason: a short status ("tracking", "reached", "rejected: p_col", "backtraced", ...).
-        losses: loss terms and multipliers of the last iteration.
-        arm_pos_err_m: [m] error of the measured arm's TCP to the goal (None: not computed); the latent state can
-            run ahead of an arm that does not follow, so progress is judged on this.
-    """
-
-    command: np.ndarray
-    accepted: bool
-    reached: bool
-    pos_err_m: float
-    ori_err_rad: float
-    p_collision: float
-    reason: str
-    losses: dict = field(default_factory=dict)
-    arm_pos_err_m: float | None = None
-
-
-class _Search:
-    """Optimisation state of a batch of latent seeds."""
-
-    def __init__(self, planner: AmpLs, start_q: np.ndarray, n_seeds: int | None = None, lr: float | None = None):
-        cfg = planner.config
-        lr = cfg.lr if lr is None else lr
-        b = cfg.n_seeds if n_seeds is None else n_seeds
-        with torch.no_grad():
-            z0 = planner.vae.encode_q(torch.as_tensor(start_q, dtype=torch.float32)[None])
-        z = z0.repeat(b, 1)
-        if b > 1:
-            z[1:] += cfg.seed_noise * torch.randn(b - 1, z.shape[1], generator=planner.generator)
-        self.z = torch.nn.Parameter(z)
-        self.opt = torch.optim.Adam([self.z], lr=lr) if cfg.optimizer == "adam" else torch.optim.SGD([self.z], lr=lr)
-        self.z_prev = self.z.detach().clone()
-        self.q_prev = np.repeat(np.asarray(start_q, dtype=float)[None], b, axis=0)
-        self.q_command = np.asarray(start_q, dtype=float).copy()
-        self.paths: list[list[np.ndarray]] = [[np.asarray(start_q, dtype=float)[None]] for _ in range(b)]
-        # lazy checking (open loop, lazy_check): accepted states not yet hard-checked, as (q (7,), z (L,)),
-        # after the last checked state q_ok / z_ok of each seed; q_prev / z_prev are then the last accepted one
-        self.pending: list[list[tuple[np.ndarray, torch.Tensor]]] = [[] for _ in range(b)]
-        self.q_ok = self.q_prev.copy()
-        self.z_ok = self.z_prev.clone()
-        geco = dict(alpha_ma=cfg.geco_alpha_ma, lambda_min=cfg.lambda_min, lambda_max=cfg.lambda_max)
-        # lambda_target scales lambda_pos and lambda_ori together
-        self.target = Geco(GecoConfig(tau=-cfg.tau_prior, step=cfg.geco_step_target, lambda_init=1.0, **geco), (b,))
-        self.col = Geco(GecoConfig(tau=cfg.tau_col, step=cfg.geco_step_col, lambda_init=cfg.lambda_col, **geco), (b,))
-        self.best_err = np.full(b, np.inf)
-        self.guide_q = np.full((b, 7), np.nan)  # goal guidance: each seed's joint-space target (NaN: the pose)
-        self.best_guide_err = np.full(b, np.inf)  # [rad] smallest max-joint distance to guide_q so far
-        self.goal_qs: list[np.ndarray] | None = None  # goal configurations, once searched
-        self.finish_tried = np.full(b, -(10**9))  # iteration of each seed's last exact-finish attempt
-        self.direct_refused: list[np.ndarray] = []  # ends (7,) whose straight segment from the start collided
-        self.last_improved = np.zeros(b, dtype=int)
-        self.iteration = 0
-        self.backtraces = 0
-        self.restarts = 0
-        self.last_losses: dict = {}
-
-
-class AmpLs:
+class AmpLs(PlanAdditions):
     """The AMP-LS planner over a frozen VAE and a collision backend.
 
     Args:
@@ -147,7 +75,7 @@ class AmpLs:
         self.panda = load_panda()
         self.finish_ik = IkConfig(max_iters=30, max_step_rad=0.2)
         self._escape_from: np.ndarray | None = None  # plan: the start, while states near it are not refused
-        self._search: _Search | None = None
+        self._search: LatentSearch | None = None
 
     # -- shared pieces -----------------------------------------------------------------------------
     def _pose(self, z: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -167,7 +95,7 @@ class AmpLs:
     def _reached(self, pos_err: float, ori_err: float, goal: Goal) -> bool:
         return pos_err < goal.pos_tol and (ori_err < goal.ori_tol or not self.config.use_orientation)
 
-    def _iterate(self, s: _Search, goal: Goal, accept: bool, lazy: bool = False) -> dict:
+    def _iterate(self, s: LatentSearch, goal: Goal, accept: bool, lazy: bool = False) -> dict:
         """One iteration of Algorithm 1 for every seed; returns what happened.
 
         lazy: accepted steps are hard-checked only when a seed reaches the goal (`_verify`), not one by one.
@@ -222,7 +150,7 @@ class AmpLs:
         events["pos_err"], events["ori_err"], events["p_col"] = pos_err, ori_err, p_col.detach().numpy()
         return events
 
-    def _accept_eagerly(self, s: _Search, goal: Goal, candidates, q_np, pos_err, ori_err, events) -> None:
+    def _accept_eagerly(self, s: LatentSearch, goal: Goal, candidates, q_np, pos_err, ori_err, events) -> None:
         """Algorithm 1: check the step of every seed in candidates to its decoded state q_np[b] (one batch); accept
         the free ones, back-trace the colliding ones (lambda_target scaled by i/m)."""
         cfg = self.config
@@ -250,7 +178,7 @@ class AmpLs:
             if self._reached(pos_err[b], ori_err[b], goal):
                 events["reached"].append(b)
 
-    def _accept_lazily(self, s: _Search, goal: Goal, candidates, q_np, pos_err, ori_err, events) -> None:
+    def _accept_lazily(self, s: LatentSearch, goal: Goal, candidates, q_np, pos_err, ori_err, events) -> None:
         """Accept the decoded states q_np[candidates] unchecked; check the seeds that reach the goal (one batch)
         and back-trace those whose steps collide."""
         due = []
@@ -270,7 +198,7 @@ class AmpLs:
             if self._reached(pos_err[b], ori_err[b], goal):
                 events["reached"].append(b)
 
-    def _verify(self, s: _Search, seeds: list[int]) -> list[int]:
+    def _verify(self, s: LatentSearch, seeds: list[int]) -> list[int]:
         """Hard-check the unchecked steps of `seeds` in one batch. A free chain joins the path; a colliding one
         joins it up to the step that collides, and the seed back-traces to the state before that step (its
         target weights scaled by i/m, as in Algorithm 1). Returns the seeds that back-traced."""
@@ -303,86 +231,6 @@ class AmpLs:
             backtraced.append(b)
         return backtraced
 
-    def _finish(self, s: _Search, goal: Goal, ev: dict) -> int | None:
-        """Exact finish (beyond the seed): a guided seed accepted this iteration within finish_max_rad of its goal
-        configuration tries the straight segment to it; else the accepted seed nearest the goal, once its TCP is
-        within finish_radius_m / finish_angle_deg, runs damped-least-squares IK from its accepted state to the
-        goal pose and tries the segment to the solution. Returns the seed that reached the goal, or None."""
-        cfg = self.config
-        due = [b for b in ev["accepted"] if s.iteration - s.finish_tried[b] >= cfg.finish_every]
-        for b in due:
-            if np.isfinite(s.guide_q[b, 0]) and np.abs(s.guide_q[b] - s.q_prev[b]).max() <= cfg.finish_max_rad:
-                s.finish_tried[b] = s.iteration
-                if self._finish_to(s, b, s.guide_q[b].copy()):
-                    return b
-        near = [
-            b
-            for b in due
-            if ev["pos_err"][b] < cfg.finish_radius_m
-            and ev["ori_err"][b] < np.radians(cfg.finish_angle_deg)
-            and s.finish_tried[b] != s.iteration
-        ]
-        if not near:
-            return None
-        b = min(near, key=lambda i: float(ev["pos_err"][i]))
-        s.finish_tried[b] = s.iteration
-        sol = solve_ik(self.panda, goal, s.q_prev[b], self.finish_ik)
-        if not sol.converged or np.abs(sol.q - s.q_prev[b]).max() > cfg.finish_max_rad:
-            return None
-        return b if self._finish_to(s, b, sol.q) else None
-
-    def _direct(self, s: _Search, b: int, q_goal: np.ndarray | None = None) -> bool:
-        """Shortcut first (open loop, with `shortcut` on): the straight segment from the start to seed b's last
-        accepted state (or to q_goal (7,) [rad]), hard-checked like a step. If it is free it becomes the seed's
-        whole path and its unchecked steps are dropped, as shortcutting would drop them; True if it did."""
-        if not self.config.shortcut:
-            return False
-        start = s.paths[b][0][0]
-        end = s.q_prev[b] if q_goal is None else q_goal
-        if any(np.abs(end - e).max() < DIRECT_SKIP_RAD for e in s.direct_refused):
-            return False  # the same end as a refused one (finishes from nearby states find the same IK solution)
-        seg = interpolate(start, end, self._n_checks(start, end))
-        if not self._free(seg):
-            s.direct_refused.append(np.array(end, dtype=float))
-            return False
-        s.paths[b] = [start[None], seg]
-        s.pending[b] = []
-        s.q_prev[b] = end
-        return True
-
-    def _finish_to(self, s: _Search, b: int, q_goal: np.ndarray) -> bool:
-        """Try the straight segment from seed b's accepted state to q_goal (7,) [rad], hard-checked like an
-        accepted step (and, checking lazily, the seed's unchecked steps with it); True if it joined the path."""
-        if self.config.lazy_check and self._direct(s, b, q_goal):
-            return True
-        seg = interpolate(s.q_prev[b], q_goal, self._n_checks(s.q_prev[b], q_goal))
-        if not self._free(seg):
-            return False
-        if self.config.lazy_check:
-            s.pending[b].append((q_goal, s.z_prev[b].detach().clone()))
-            if self._verify(s, [b]):
-                return False
-        else:
-            s.paths[b].append(seg)
-        s.q_prev[b] = q_goal
-        return True
-
-    def _goal_configurations(self, s: _Search, goal: Goal) -> list[np.ndarray]:
-        """Goal guidance: up to goal_guidance distinct IK solutions (7,) [rad] of the goal that pass the hard
-        check, searched once per plan (from the best seed's state, the ready pose, then random seeds)."""
-        if s.goal_qs is None:
-            rng = np.random.default_rng(int(torch.randint(0, 2**31 - 1, (1,), generator=self.generator)))
-            search = goal_configurations(
-                self.panda,
-                goal,
-                s.q_prev[int(np.argmin(s.best_err))],
-                lambda q: "hard check" if self._check_segments([q[None]])[0][0] else None,
-                IkConfig(n_seeds=32, max_solutions=self.config.goal_guidance, timeout_s=0.5),
-                rng,
-            )
-            s.goal_qs = search.solutions
-        return s.goal_qs
-
     def _direct_target(self, q_from: np.ndarray, q_last: np.ndarray, q_first: np.ndarray) -> np.ndarray:
         """The state to command from q_from (7,) [rad]: q_last when the straight segment to it passes the hard
         check (no check needed when it is q_first, whose segment was checked), else q_first."""
@@ -412,7 +260,7 @@ class AmpLs:
         start_refused = bool(self._check_segments([start_q[None]])[0][0])
         if start_refused and cfg.escape_rad > 0:
             self._escape_from = start_q
-        s = _Search(self, start_q, lr=cfg.plan_lr)
+        s = LatentSearch(self, start_q, lr=cfg.plan_lr)
         t_setup = time.perf_counter() - t0
         reason, winner = "step budget exhausted", None
         for t in range(cfg.max_steps):
@@ -452,21 +300,6 @@ class AmpLs:
         result.info["guided"] = bool(np.isfinite(s.guide_q[winner, 0]))
         return result
 
-    def _shortcut(self, path: list[np.ndarray]) -> np.ndarray:
-        """The checked chain `path` (segments, each ending at an accepted state) shortened by `shortcut`, densified
-        at the check resolution: (T, 7) [rad]."""
-        vertices = np.stack([seg[-1] for seg in path])
-        kept = shortcut(
-            vertices,
-            lambda a, b: interpolate(a, b, self._n_checks(a, b)),
-            lambda segs: [np.array([not self._free(seg)]) for seg in segs],
-        )
-        segs = [vertices[:1]] + [
-            interpolate(vertices[a], vertices[b], self._n_checks(vertices[a], vertices[b]))
-            for a, b in zip(kept[:-1], kept[1:], strict=True)
-        ]
-        return np.concatenate(segs)
-
     def _n_checks(self, q_from: np.ndarray, q_to: np.ndarray) -> int:
         """m, the states checked on a step: interp_steps, or (check_step_rad > 0) one per check_step_rad [rad]."""
         if self.config.check_step_rad <= 0:
@@ -497,35 +330,6 @@ class AmpLs:
             hits &= np.abs(states - self._escape_from).max(axis=1) > self.config.escape_rad
         return np.split(hits, ends)
 
-    def _restart(self, s: _Search, b: int, t: int, goal: Goal) -> None:
-        """Move stalled seed b to the best seed's last accepted state, with a latent kick (open loop); with goal
-        guidance, the seed then targets a goal configuration (the k-th restart the k-th nearest, cyclically)."""
-        best = int(np.argmin(s.best_err))
-        if self.config.goal_guidance > 0 and (goal_qs := self._goal_configurations(s, goal)):
-            order = np.argsort([np.abs(g - s.q_prev[best]).max() for g in goal_qs])
-            s.guide_q[b] = goal_qs[order[s.restarts % len(goal_qs)]]
-            s.best_guide_err[b] = np.inf
-        noise = self.config.seed_noise * self.config.restart_scale
-        with torch.no_grad():
-            s.z_prev[b] = s.z_prev[best]
-            s.z[b] = s.z_prev[best] + noise * torch.randn(s.z.shape[1], generator=self.generator)
-        for state in s.opt.state.values():  # forget this seed's optimiser moments
-            for v in state.values():
-                if torch.is_tensor(v) and v.dim() > 0:
-                    v[b] = 0.0
-        s.q_prev[b] = s.q_prev[best]
-        s.paths[b] = list(s.paths[best])
-        s.pending[b] = list(s.pending[best])
-        s.q_ok[b] = s.q_ok[best]
-        with torch.no_grad():
-            s.z_ok[b] = s.z_ok[best]
-        for geco in (s.target, s.col):  # the best seed's multipliers
-            geco.log_lambda[b] = geco.log_lambda[best]
-            if geco.c_ma is not None:
-                geco.c_ma[b] = geco.c_ma[best]
-        s.best_err[b], s.last_improved[b] = s.best_err[best], t
-        s.restarts += 1
-
     def _fk_err(self, q: np.ndarray, goal: Goal) -> tuple[float, float]:
         pos, rot = self.fk64.ee_pose(torch.as_tensor(q, dtype=torch.float64)[None])
         pe = float((pos[0] - torch.as_tensor(goal.position)).norm())
@@ -533,7 +337,7 @@ class AmpLs:
         return pe, oe
 
     def _result(
-        self, s: _Search, q_path: np.ndarray, b: int, goal: Goal, reason: str, elapsed: float, t_setup: float
+        self, s: LatentSearch, q_path: np.ndarray, b: int, goal: Goal, reason: str, elapsed: float, t_setup: float
     ) -> PlanResult:
         with torch.no_grad():
             pos, rot = self.fk64.ee_pose(torch.as_tensor(q_path))
@@ -558,7 +362,7 @@ class AmpLs:
         """Run a few optimisation steps once, so the first real plan or tick does not pay torch's lazy set-up."""
         pos, rot = self.fk64.ee_pose(torch.as_tensor(Q_READY, dtype=torch.float64)[None])
         goal = Goal(pos[0].numpy(), rot[0].numpy())
-        s = _Search(self, Q_READY.copy())
+        s = LatentSearch(self, Q_READY.copy())
         for accept in (False, True, True):
             self._iterate(s, goal, accept=accept)
 
@@ -596,7 +400,7 @@ class AmpLs:
         # re-encode when the arm is not where the last command sent it (a reset, a push, a stale start);
         # the latent state may run ahead of the arm, whose commands are velocity-limited
         if s is None or np.abs(s.q_command - q_measured).max() > resync_rad:
-            s = self._search = _Search(self, q_measured, cfg.closed_loop_seeds)
+            s = self._search = LatentSearch(self, q_measured, cfg.closed_loop_seeds)
         s.q_prev[:] = q_measured  # the robot is where it is: check from here
         ev: dict = {}
         first_accepted: dict[int, np.ndarray] = {}  # seed -> its first state accepted in this tick

@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-from latent_planner_ros.planning import amp_ls
+from latent_planner_ros.planning import amp_ls_additions
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls_search import LatentSearch
 from latent_planner_ros.planning.collision_backend import NoCollision
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.ik import solve_ik as original_ik
@@ -88,7 +89,7 @@ def test_a_colliding_finish_is_refused_and_lazy_checks_back_trace(shipped_vae, m
     goal = _goal_of(Q_READY + np.array([0.3, 0.1, -0.1, 0.2, 0.0, 0.1, 1.2]))
     cfg = AmpLsConfig(use_collision=True, n_seeds=2, max_steps=80, restarts=0, finish_radius_m=0.3)
     solved = []
-    monkeypatch.setattr(amp_ls, "solve_ik", lambda *a: solved.append(original_ik(*a)) or solved[-1])
+    monkeypatch.setattr(amp_ls_additions, "solve_ik", lambda *a: solved.append(original_ik(*a)) or solved[-1])
     result = AmpLs(shipped_vae, RefuseFar(), cfg, seed=0).plan(Q_READY, goal)
     assert not result.success
     assert sum(sol.converged for sol in solved) > 0  # exact finishes were found, and refused by the check
@@ -148,7 +149,7 @@ def test_goal_configurations_reach_the_goal_and_pass_the_hard_check(shipped_vae)
     q_goal = Q_READY + np.array([0.5, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3])
     goal = _goal_of(q_goal)
     planner = AmpLs(shipped_vae, RefuseNear(q_goal), AmpLsConfig(goal_guidance=3), seed=0)
-    s = amp_ls._Search(planner, Q_READY)
+    s = LatentSearch(planner, Q_READY)
     found = planner._goal_configurations(s, goal)
     assert len(found) == 3 and planner._goal_configurations(s, goal) is found  # searched once per plan
     panda = load_panda()
@@ -225,12 +226,12 @@ def test_a_refused_straight_segment_is_not_checked_again_for_the_same_end(shippe
     is skipped (safe: the seed's own steps are checked instead); a different end is checked."""
     backend = RefuseOne(None)
     planner = AmpLs(shipped_vae, backend, AmpLsConfig(self_check=False))
-    s = amp_ls._Search(planner, Q_READY, n_seeds=1)
+    s = LatentSearch(planner, Q_READY, n_seeds=1)
     end = Q_READY + np.array([0.4, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
     backend.bad = interpolate(Q_READY, end, planner._n_checks(Q_READY, end))[5]
     assert not planner._direct(s, 0, end) and backend.calls > 0
     calls = backend.calls
-    assert not planner._direct(s, 0, end + 0.5 * amp_ls.DIRECT_SKIP_RAD)
+    assert not planner._direct(s, 0, end + 0.5 * amp_ls_additions.DIRECT_SKIP_RAD)
     assert backend.calls == calls  # skipped
     backend.bad = Q_READY - 1.0
     other = end + np.array([0.0, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0])

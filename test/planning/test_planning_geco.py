@@ -5,8 +5,9 @@ import math
 import numpy as np
 import torch
 
-from latent_planner_ros.planning.amp_ls import AmpLs, _Search
+from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls_search import LatentSearch
 from latent_planner_ros.planning.collision_backend import NoCollision
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.robot.limits import Q_READY
@@ -22,7 +23,7 @@ class ConstantCollision(NoCollision):
 def test_multipliers_follow_the_moving_average_rule(shipped_vae):
     cfg = AmpLsConfig(collision_backend="none", n_seeds=1, lambda_col=2.0, geco_alpha_ma=0.9)
     planner = AmpLs(shipped_vae, ConstantCollision(), cfg)
-    s = _Search(planner, Q_READY, n_seeds=1)
+    s = LatentSearch(planner, Q_READY, n_seeds=1)
     goal = Goal(np.array([0.5, 0.0, 0.4]), np.eye(3))
     lam_t, lam_c, c_t_ma, c_c_ma = 1.0, 2.0, None, None
     for _ in range(3):
