@@ -1,19 +1,21 @@
 """The shipped collision predictor separates clearly colliding from clearly free states in a fixed scene."""
 
 import numpy as np
+import pytest
 import torch
 
 from latent_planner_ros.data.camera import look_at
 from latent_planner_ros.data.labels import CollisionLabeler, link_poses
 from latent_planner_ros.data.obstacles import Box, Cylinder
-from latent_planner_ros.data.render import scene_cloud
+from latent_planner_ros.data.render import scene_view
 from latent_planner_ros.data.scene import Scene
 from latent_planner_ros.models.collision_metrics import auroc
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
 from latent_planner_ros.robot.sampler import FeasibleSampler
 
 
-def test_shipped_predictor_separates_colliding_from_free_states():
+@pytest.mark.parametrize("with_origin", [True, False], ids=["origin known", "origin unknown"])
+def test_shipped_predictor_separates_colliding_from_free_states(with_origin):
     torch.set_num_threads(1)
     scene = Scene(
         (
@@ -22,7 +24,8 @@ def test_shipped_predictor_separates_colliding_from_free_states():
         )
     )
     rng = np.random.default_rng(3)
-    cloud = scene_cloud(scene, rng, pose=look_at(np.array([1.6, 0.6, 0.9]), np.array([0.5, 0.0, 0.2])))
+    cloud, eye = scene_view(scene, rng, pose=look_at(np.array([1.6, 0.6, 0.9]), np.array([0.5, 0.0, 0.2])))
+    np.testing.assert_allclose(eye, [1.6, 0.6, 0.9], atol=1e-6)
     q = FeasibleSampler(rng).sample(6000)
     labels = CollisionLabeler(scene).label(q).any(axis=1)
     # clearly free: every link origin at least 25 cm from both objects' centres
@@ -32,7 +35,7 @@ def test_shipped_predictor_separates_colliding_from_free_states():
     colliding, free = q[labels], q[~labels & far]
     assert len(colliding) > 50 and len(free) > 200
     predictor = CollisionPredictor.load()
-    emb = predictor.encode(cloud)
+    emb = predictor.encode(cloud, eye if with_origin else None)
     with torch.no_grad():
         p_col = predictor.p_collision_q(emb, torch.as_tensor(colliding, dtype=torch.float32)).numpy()
         p_free = predictor.p_collision_q(emb, torch.as_tensor(free, dtype=torch.float32)).numpy()
