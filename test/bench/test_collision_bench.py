@@ -18,4 +18,7 @@ def test_bench_collision_writes_its_json(tmp_path):
     for key in keys:
         assert key in data, key
     assert 0.5 < data["auroc_near_seen"] <= 1.0  # the shipped model ranks collisions above free states
+    # the shipped network reads the camera origin: the bench also scores it with the origin withheld
+    for key in ["auroc_near_unseen_no_origin", "precision_near_unseen_no_origin", "recall_near_unseen_no_origin"]:
+        assert 0.0 <= data[key] <= 1.0, key
     assert list(out.glob("collision_*.png"))
