@@ -125,7 +125,7 @@ class TableRunner:
                     backend_used = ForeignLatentBackend(backend_used)
                 planner = AmpLs(vaes[variant.vae], backend_used, config)
                 planner.name = name
-                planner.checker = CollisionChecker(table=table)
+                planner.checker = CollisionChecker(table=table, convex=True)
                 planner.warm_up()
             else:
                 planner = OmplPlanner(ompl_config(name, table))

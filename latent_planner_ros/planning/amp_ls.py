@@ -40,7 +40,6 @@ from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.amp_ls_search import LatentSearch, StepResult
 from latent_planner_ros.planning.collision_backend import CollisionBackend
 from latent_planner_ros.planning.goal import Goal
-from latent_planner_ros.planning.ik import IkConfig
 from latent_planner_ros.planning.result import PlanResult
 from latent_planner_ros.planning.time_parameterisation import interpolate, time_parameterise
 from latent_planner_ros.robot.collision import CollisionChecker
@@ -71,9 +70,8 @@ class AmpLs(PlanAdditions):
         self.config = config or AmpLsConfig()
         self.generator = torch.Generator().manual_seed(seed)
         self.fk64 = TorchFK(dtype=torch.float64)
-        self.checker = CollisionChecker()
+        self.checker = CollisionChecker(convex=True)
         self.panda = load_panda()
-        self.finish_ik = IkConfig(max_iters=30, max_step_rad=0.2)
         self._escape_from: np.ndarray | None = None  # plan: the start, while states near it are not refused
         self._search: LatentSearch | None = None
 

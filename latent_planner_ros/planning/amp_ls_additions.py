@@ -2,7 +2,7 @@
 
 Exact finish (`_finish`, `_finish_to`), shortcut first (`_direct`), goal guidance (`_goal_configurations`),
 restarts of stalled seeds (`_restart`) and shortcutting of the final path (`_shortcut`); amp_ls.py describes
-each. They use the planner's `config`, `panda`, `finish_ik`, `generator` and its hard checks (`_free`,
+each. They use the planner's `config`, `panda`, `generator` and its hard checks (`_free`,
 `_n_checks`, `_check_segments`, `_verify`).
 """
 
@@ -48,7 +48,8 @@ class PlanAdditions:
             return None
         b = min(near, key=lambda i: float(ev["pos_err"][i]))
         s.finish_tried[b] = s.iteration
-        sol = solve_ik(self.panda, goal, s.q_prev[b], self.finish_ik)
+        ik = IkConfig(max_iters=cfg.finish_ik_iters, max_step_rad=cfg.finish_ik_step_rad)
+        sol = solve_ik(self.panda, goal, s.q_prev[b], ik)
         if not sol.converged or np.abs(sol.q - s.q_prev[b]).max() > cfg.finish_max_rad:
             return None
         return b if self._finish_to(s, b, sol.q) else None

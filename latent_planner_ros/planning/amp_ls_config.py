@@ -48,14 +48,18 @@ class AmpLsConfig:
     end), in one batch, back-tracing to the state before the first colliding step (beyond the seed: seeds that
     never win are not checked; about 3x faster at the same success in `bench table`); False: every step is
     checked as it is accepted (the seed, and always in the closed loop)"""
-    finish_radius_m: float = 0.5
+    finish_radius_m: float = 2.0
     """open loop: > 0 lets the seed nearest the goal, once its TCP is within this distance [m] and
     finish_angle_deg of the goal, finish by exact damped-least-squares IK from its accepted state, the straight
     segment to the solution checked like any step (beyond the seed); 0: only the latent optimisation reaches"""
     finish_angle_deg: float = 180.0
     """orientation error [deg] within which the exact finish is tried"""
-    finish_max_rad: float = 1.0
+    finish_max_rad: float = 3.0
     """largest joint change [rad] the exact finish may make"""
+    finish_ik_iters: int = 100
+    """damped-least-squares iterations of one exact-finish attempt"""
+    finish_ik_step_rad: float = 0.3
+    """largest joint change [rad] of one of those iterations"""
     finish_every: int = 2
     """iterations between two exact-finish attempts of one seed"""
     escape_rad: float = 0.05
@@ -117,7 +121,9 @@ class AmpLsConfig:
             problems.append(f"optimizer must be 'adam' or 'sgd', got {self.optimizer!r}")
         if self.collision_backend not in BACKENDS:
             problems.append(f"collision_backend must be one of {BACKENDS}, got {self.collision_backend!r}")
-        positive = ("lr", "plan_lr", "pos_tol", "ori_tol_deg", "seed_noise", "speed_scale", "restart_scale")
+        positive = (
+            "lr", "plan_lr", "pos_tol", "ori_tol_deg", "seed_noise", "speed_scale", "restart_scale", "finish_ik_step_rad"
+        )
         for name in (*positive, "lambda_min", "lambda_max"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
@@ -133,7 +139,9 @@ class AmpLsConfig:
         if not (isinstance(self.goal_guidance, int) and not isinstance(self.goal_guidance, bool)
                 and self.goal_guidance >= 0):  # fmt: skip
             problems.append(f"goal_guidance must be an integer >= 0, got {self.goal_guidance!r}")
-        for name in ("max_steps", "interp_steps", "finish_every", "n_seeds", "closed_loop_seeds", "patience"):
+        for name in (
+            "max_steps", "interp_steps", "finish_every", "finish_ik_iters", "n_seeds", "closed_loop_seeds", "patience"
+        ):
             if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
                 problems.append(f"{name} must be an integer >= 1, got {getattr(self, name)!r}")
         if not (isinstance(self.check_step_rad, int | float) and 0.0 <= self.check_step_rad <= 0.5):

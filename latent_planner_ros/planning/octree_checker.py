@@ -100,7 +100,7 @@ class OctreeChecker(StateValidity):
         self.panda = panda or load_panda()
         self.occupancy = occupancy or OccupancyMap.from_cloud(None)
         self.links: LinkGeometry = link_geometry()
-        self.self_checker = CollisionChecker(self.panda, table=table)
+        self.self_checker = CollisionChecker(self.panda, table=table, convex=True)
         self._frame_ids = [self.panda.frame_id(name) for name in self.links.names]
         self._padding = float(padding)
         self._data = self.panda.model.createData()

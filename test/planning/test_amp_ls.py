@@ -93,6 +93,10 @@ def test_bad_inputs_are_refused(shipped_vae):
         AmpLsConfig(lr=-1.0)
     with pytest.raises(ValueError):
         AmpLsConfig(collision_backend="magic")
+    with pytest.raises(ValueError, match="finish_ik_iters"):
+        AmpLsConfig(finish_ik_iters=0)
+    with pytest.raises(ValueError, match="finish_ik_step_rad"):
+        AmpLsConfig(finish_ik_step_rad=0.0)
 
 
 def test_time_parameterisation():

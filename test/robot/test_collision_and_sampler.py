@@ -53,3 +53,14 @@ def test_sampler_is_reproducible():
     a = FeasibleSampler(np.random.default_rng(3)).sample(50)
     b = FeasibleSampler(np.random.default_rng(3)).sample(50)
     np.testing.assert_array_equal(a, b)
+
+
+def test_convex_hulls_are_conservative_and_close_to_the_meshes(rng):
+    from latent_planner_ros.robot.limits import Q_MAX, Q_MIN
+
+    q = rng.uniform(Q_MIN, Q_MAX, (400, 7))
+    meshes, hulls = CollisionChecker().feasible(q), CollisionChecker(convex=True).feasible(q)
+    assert not np.any(hulls & ~meshes)  # free for the hulls => free for the meshes they enclose
+    assert 0 < meshes.sum() and (meshes & ~hulls).sum() <= 0.05 * meshes.sum()
+    assert CollisionChecker(convex=True).collisions(Q_READY) == (False, False)
+    assert CollisionChecker(table=False, convex=True).collisions(np.array([0.0, 0.0, 0.0, -3.0, 0.0, 0.0, 0.0]))[0]
