@@ -122,7 +122,14 @@ class AmpLsConfig:
         if self.collision_backend not in BACKENDS:
             problems.append(f"collision_backend must be one of {BACKENDS}, got {self.collision_backend!r}")
         positive = (
-            "lr", "plan_lr", "pos_tol", "ori_tol_deg", "seed_noise", "speed_scale", "restart_scale", "finish_ik_step_rad"
+            "lr",
+            "plan_lr",
+            "pos_tol",
+            "ori_tol_deg",
+            "seed_noise",
+            "speed_scale",
+            "restart_scale",
+            "finish_ik_step_rad",
         )
         for name in (*positive, "lambda_min", "lambda_max"):
             v = getattr(self, name)
@@ -140,7 +147,13 @@ class AmpLsConfig:
                 and self.goal_guidance >= 0):  # fmt: skip
             problems.append(f"goal_guidance must be an integer >= 0, got {self.goal_guidance!r}")
         for name in (
-            "max_steps", "interp_steps", "finish_every", "finish_ik_iters", "n_seeds", "closed_loop_seeds", "patience"
+            "max_steps",
+            "interp_steps",
+            "finish_every",
+            "finish_ik_iters",
+            "n_seeds",
+            "closed_loop_seeds",
+            "patience",
         ):
             if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
                 problems.append(f"{name} must be an integer >= 1, got {getattr(self, name)!r}")
