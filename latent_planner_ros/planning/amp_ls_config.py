@@ -56,7 +56,7 @@ class AmpLsConfig:
     """orientation error [deg] within which the exact finish is tried"""
     finish_max_rad: float = 3.0
     """largest joint change [rad] the exact finish may make"""
-    finish_ik_iters: int = 100
+    finish_ik_iters: int = 50
     """damped-least-squares iterations of one exact-finish attempt"""
     finish_ik_step_rad: float = 0.3
     """largest joint change [rad] of one of those iterations"""
