@@ -74,7 +74,7 @@ class CollisionPredictor:
 
     def link_logits(self, embedding: SceneEmbedding, z: torch.Tensor) -> torch.Tensor:
         """Per-link logits (B, L) for latents z (B, latent), with q = vae.decode(z).q."""
-        return self.link_logits_q(embedding, self.vae.decode(z).q, z)
+        return self.link_logits_q(embedding, self.vae.decode_q(z), z)
 
     def logit(self, embedding: SceneEmbedding, z: torch.Tensor) -> torch.Tensor:
         """Global collision logit (B,) for latents z (B, latent)."""

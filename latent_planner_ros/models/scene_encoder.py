@@ -180,7 +180,7 @@ class SceneEncoder(nn.Module):
         inside = torch.all((idx >= 0) & (idx < self.grid_dims), dim=1)
         idx, cell, batch = idx[inside], cell[inside], batch[inside]
         offset = 2.0 * (cell - idx.to(cell.dtype) - 0.5)  # in [-1, 1] within the voxel
-        feats = self.point_mlp(offset)
+        feats = self._point_features(offset)
         flat = batch * n_vox + (idx[:, 0] * ny + idx[:, 1]) * nz + idx[:, 2]
         pooled = torch.zeros(n_batch * n_vox, cfg.point_features, dtype=feats.dtype, device=feats.device)
         pooled = pooled.scatter_reduce(
@@ -190,6 +190,18 @@ class SceneEncoder(nn.Module):
         grid = torch.cat([pooled, torch.log1p(count)[:, None]] + ([seen.reshape(-1, 3)] if cfg.visibility else []), 1)
         grid = grid.reshape(n_batch, nx, ny, nz, -1).permute(0, 4, 1, 2, 3)
         return self.convs(grid.contiguous())
+
+    def _point_features(self, offset: torch.Tensor) -> torch.Tensor:
+        """point_mlp of offsets (N, 3) -> (N, point_features). Without autograd, the first layer (3 inputs) is
+        three broadcast multiply-adds: the same numbers, about twice as fast as a matrix product this thin."""
+        if torch.is_grad_enabled():
+            return self.point_mlp(offset)
+        first, second = self.point_mlp[0], self.point_mlp[2]
+        w = first.weight.T  # (3, hidden)
+        h = torch.addcmul(first.bias, offset[:, :1], w[0])
+        h = torch.addcmul(h, offset[:, 1:2], w[1])
+        h = torch.addcmul(h, offset[:, 2:3], w[2])
+        return torch.relu_(second(torch.relu_(h)))
 
     def encode(self, points: np.ndarray | torch.Tensor, eye: np.ndarray | None = None) -> SceneEmbedding:
         """Embedding of one cloud (N, 3) [m] in `world`, seen from the camera origin eye (3,) [m] if known."""

@@ -87,6 +87,14 @@ class RobotStateVAE(nn.Module):
             x = h * self.x_std + self.x_mean
         return DecodedState(x=x)
 
+    def decode_q(self, z: torch.Tensor) -> torch.Tensor:
+        """Decoded joint positions (B, 7) [rad] of latents z (B, latent): decode(z).q without the kinematic
+        decoder's FK (for callers that need q only)."""
+        h = self.decoder(z)
+        if self.config.decoder == "kinematic":
+            return self.q_mid + self.q_half * torch.tanh(h)
+        return (h * self.x_std + self.x_mean)[..., Q_SLICE]
+
     @staticmethod
     def log_prior(z: torch.Tensor) -> torch.Tensor:
         """log N(z; 0, I), shape (B,) for z (B, latent)."""

@@ -105,3 +105,11 @@ def test_checkpoint_round_trip_and_clear_errors(tmp_path, rng):
     (tmp_path / "d.json").write_text("{not json")
     with pytest.raises(CheckpointError, match="JSON"):
         load_collision_net(tmp_path / "d")
+
+
+def test_inference_encoding_equals_the_autograd_path(rng):
+    net = CollisionNet(SMALL).eval()
+    cloud = torch.as_tensor(_cloud(rng))
+    with torch.no_grad():
+        fast = net.encoder(cloud)
+    torch.testing.assert_close(fast, net.encoder(cloud).detach(), rtol=1e-5, atol=1e-6)

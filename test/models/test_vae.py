@@ -39,6 +39,14 @@ def test_decoder_gradient_matches_finite_differences(decoder):
     assert torch.autograd.gradcheck(lambda v: model.decode(v).x, (z,), eps=1e-6, atol=1e-5)
 
 
+@pytest.mark.parametrize("decoder", ["plain", "kinematic"])
+def test_decode_q_equals_the_q_of_decode(decoder):
+    model = _small(decoder)
+    model.set_normalisation(torch.randn(16), torch.rand(16) + 0.5)
+    z = torch.randn(5, 7)
+    torch.testing.assert_close(model.decode_q(z), model.decode(z).q)
+
+
 def test_log_prior_and_kl():
     z = torch.zeros(2, 7)
     assert torch.allclose(RobotStateVAE.log_prior(z), torch.full((2,), -3.5 * np.log(2 * np.pi)))
