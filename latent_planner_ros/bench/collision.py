@@ -24,7 +24,13 @@ from latent_planner_ros.data.link_geometry import LABEL_LINKS, link_geometry
 from latent_planner_ros.data.queries import QuerySamplerConfig
 from latent_planner_ros.data.render import scene_cloud, scene_view
 from latent_planner_ros.models.checkpoint import CheckpointError
-from latent_planner_ros.models.collision_metrics import auroc, calibration_bins, precision_recall, roc_curve
+from latent_planner_ros.models.collision_metrics import (
+    auroc,
+    calibration_bins,
+    precision_recall,
+    recall_at_precision,
+    roc_curve,
+)
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
 
 BENCH_SEED = 1000
@@ -99,6 +105,7 @@ def summarise(name: str, data: CollisionData, r: dict, threshold: float) -> dict
     y, near = data.labels, data.near
     prec, rec = precision_recall(r["p"][near], y[near], threshold)
     prec_all, rec_all = precision_recall(r["p"], y, threshold)
+    rec_88, thr_88 = recall_at_precision(r["p"][near], y[near], 0.88)
     out = {
         f"auroc_{name}": auroc(r["p"], y),
         f"auroc_near_{name}": auroc(r["p"][near], y[near]),
@@ -107,6 +114,8 @@ def summarise(name: str, data: CollisionData, r: dict, threshold: float) -> dict
         f"geometric_auroc_near_{name}": auroc(r["geo"][near], y[near]),
         f"precision_near_{name}": prec,
         f"recall_near_{name}": rec,
+        f"recall_at_precision_0.88_near_{name}": rec_88,
+        f"threshold_at_precision_0.88_near_{name}": thr_88,
         f"precision_{name}": prec_all,
         f"recall_{name}": rec_all,
         f"ece_near_{name}": calibration_bins(r["p"][near], y[near])["ece"],
@@ -172,6 +181,8 @@ def markdown(results: dict, ckpt: str, threshold: float) -> str:
         ("geometric reference AUROC, near", "geometric_auroc_near"),
         (f"precision at p >= {threshold}, near", "precision_near"),
         (f"recall at p >= {threshold}, near", "recall_near"),
+        ("best recall at precision >= 0.88, near (any threshold)", "recall_at_precision_0.88_near"),
+        ("... its threshold", "threshold_at_precision_0.88_near"),
         ("expected calibration error, near", "ece_near"),
         ("collision rate, uniform / near", None),
         ("scenes / queries", None),

@@ -27,6 +27,25 @@ def precision_recall(p: np.ndarray, labels: np.ndarray, threshold: float) -> tup
     return precision, recall
 
 
+def recall_at_precision(p: np.ndarray, labels: np.ndarray, min_precision: float) -> tuple[float, float]:
+    """(recall, threshold): the largest recall of a decision p >= threshold whose precision is at least
+    min_precision, over every threshold (nan, nan if none reaches it or a class is absent)."""
+    p = np.asarray(p, dtype=float).ravel()
+    labels = np.asarray(labels, dtype=bool).ravel()
+    if not labels.any() or labels.all():
+        return float("nan"), float("nan")
+    order = np.argsort(-p, kind="stable")
+    s, y = p[order], labels[order]
+    last = np.r_[np.flatnonzero(np.diff(s)), len(s) - 1]  # cut after each run of equal scores
+    tp = np.cumsum(y)[last]
+    precision = tp / (last + 1)
+    ok = np.flatnonzero(precision >= min_precision)
+    if not len(ok):
+        return float("nan"), float("nan")
+    best = ok[np.argmax(tp[ok])]
+    return float(tp[best] / labels.sum()), float(s[last[best]])
+
+
 def calibration_bins(p: np.ndarray, labels: np.ndarray, n_bins: int = 10) -> dict:
     """Reliability diagram data: per equal-width probability bin the mean prediction, positive rate, count;
     plus the expected calibration error (count-weighted mean |mean prediction - positive rate|)."""

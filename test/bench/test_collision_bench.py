@@ -17,6 +17,8 @@ def test_bench_collision_writes_its_json(tmp_path):
     keys += ["precision_near_unseen", "geometric_auroc_near_unseen", "encode_ms_median", "query_ms_median"]
     for key in keys:
         assert key in data, key
+    best = data["recall_at_precision_0.88_near_seen"]  # nan if no threshold reaches precision 0.88
+    assert best != best or data["recall_near_seen"] <= best or data["precision_near_seen"] < 0.88
     assert 0.5 < data["auroc_near_seen"] <= 1.0  # the shipped model ranks collisions above free states
     # the shipped network reads the camera origin: the bench also scores it with the origin withheld
     for key in ["auroc_near_unseen_no_origin", "precision_near_unseen_no_origin", "recall_near_unseen_no_origin"]:
