@@ -193,7 +193,7 @@ class SceneEncoder(nn.Module):
 
     def _point_features(self, offset: torch.Tensor) -> torch.Tensor:
         """point_mlp of offsets (N, 3) -> (N, point_features). Without autograd, the first layer (3 inputs) is
-        three broadcast multiply-adds: the same numbers, about twice as fast as a matrix product this thin."""
+        three broadcast multiply-adds: the same numbers, faster than a matrix product this thin."""
         if torch.is_grad_enabled():
             return self.point_mlp(offset)
         first, second = self.point_mlp[0], self.point_mlp[2]

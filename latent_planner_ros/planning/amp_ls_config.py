@@ -77,7 +77,8 @@ class AmpLsConfig:
     the accepted steps (planning/shortcut.py; beyond the seed); with lazy_check, a seed reaching the goal first
     tries the straight segment from the start, before its own steps are checked"""
     self_check: bool = True
-    """also check every interpolated state for self- and table collision (exact meshes; beyond the seed)"""
+    """also check every interpolated state for self- and table collision (exact checks of the
+    convex hulls of the link meshes, which contain the meshes; beyond the seed)"""
     target_on_fk: bool = True
     """target losses on the exact torch FK of the decoded q instead of the decoded pose"""
     n_seeds: int = 8
