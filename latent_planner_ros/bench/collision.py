@@ -32,6 +32,7 @@ from latent_planner_ros.models.collision_metrics import (
     roc_curve,
 )
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
+from latent_planner_ros.planning.learned_backend import CHECK_THRESHOLD
 
 BENCH_SEED = 1000
 """Seed of the benchmark splits ("bench_seen", "bench_unseen"); training uses 0, validation 7."""
@@ -232,7 +233,9 @@ def main(argv: list[str]) -> int:
     p.add_argument("--queries", type=int, default=100, help="uniform and near-object queries per scene (each)")
     p.add_argument("--checkpoint", type=Path, default=None, help="collision checkpoint stem (default: shipped)")
     p.add_argument("--vae", type=Path, default=None, help="VAE stem (default: the one recorded in the checkpoint)")
-    p.add_argument("--threshold", type=float, default=0.3, help="decision threshold on p(collision) (planner's)")
+    p.add_argument(
+        "--threshold", type=float, default=CHECK_THRESHOLD, help="decision threshold on p(collision) (the planner's)"
+    )
     p.add_argument("--data-dir", type=Path, default=Path("data_cache/collision"), help="cache of benchmark scenes")
     p.add_argument("--threads", type=int, default=1, help="torch threads for timing")
     args = p.parse_args(argv)

@@ -44,8 +44,9 @@ class TrainCollisionConfig:
     unknown_eye_prob: float = 0.1
     """probability that a training cloud's camera origin is withheld (a network with visibility channels then
     still works, less well, for clouds whose origin is unknown)"""
-    threshold: float = 0.3
-    """decision threshold on p(collision) for the reported precision/recall (the planner's gamma_col)"""
+    threshold: float = 0.2
+    """decision threshold on p(collision) for the reported precision/recall (the planner's hard check:
+    planning/learned_backend.py CHECK_THRESHOLD)"""
     eval_every: int = 300
     """steps between evaluations and checkpoints"""
     refresh_every: int = 200
