@@ -6,6 +6,16 @@ import numpy as np
 from scipy.stats import rankdata
 
 
+def _cuts(scores: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every decision "score >= t" over the distinct scores t, highest first: t (K,), true and false positives (K,)."""
+    scores = np.asarray(scores, dtype=float).ravel()
+    labels = np.asarray(labels, dtype=bool).ravel()
+    order = np.argsort(-scores, kind="stable")
+    s, y = scores[order], labels[order]
+    last = np.r_[np.flatnonzero(np.diff(s)), len(s) - 1]  # end of each run of equal scores
+    return s[last], np.cumsum(y)[last], np.cumsum(~y)[last]
+
+
 def auroc(scores: np.ndarray, labels: np.ndarray) -> float:
     """Area under the ROC curve (Mann-Whitney U with tie correction); nan if one class is absent."""
     scores = np.asarray(scores, dtype=float).ravel()
@@ -30,20 +40,14 @@ def precision_recall(p: np.ndarray, labels: np.ndarray, threshold: float) -> tup
 def recall_at_precision(p: np.ndarray, labels: np.ndarray, min_precision: float) -> tuple[float, float]:
     """(recall, threshold): the largest recall of a decision p >= threshold whose precision is at least
     min_precision, over every threshold (nan, nan if none reaches it or a class is absent)."""
-    p = np.asarray(p, dtype=float).ravel()
-    labels = np.asarray(labels, dtype=bool).ravel()
-    if not labels.any() or labels.all():
+    thresholds, tp, fp = _cuts(p, labels)
+    if not len(tp) or not tp[-1] or not fp[-1]:
         return float("nan"), float("nan")
-    order = np.argsort(-p, kind="stable")
-    s, y = p[order], labels[order]
-    last = np.r_[np.flatnonzero(np.diff(s)), len(s) - 1]  # cut after each run of equal scores
-    tp = np.cumsum(y)[last]
-    precision = tp / (last + 1)
-    ok = np.flatnonzero(precision >= min_precision)
+    ok = np.flatnonzero(tp >= min_precision * (tp + fp))
     if not len(ok):
         return float("nan"), float("nan")
     best = ok[np.argmax(tp[ok])]
-    return float(tp[best] / labels.sum()), float(s[last[best]])
+    return float(tp[best] / tp[-1]), float(thresholds[best])
 
 
 def calibration_bins(p: np.ndarray, labels: np.ndarray, n_bins: int = 10) -> dict:
@@ -62,11 +66,5 @@ def calibration_bins(p: np.ndarray, labels: np.ndarray, n_bins: int = 10) -> dic
 
 def roc_curve(scores: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """False and true positive rates (K,) over all thresholds, from (0, 0) to (1, 1)."""
-    scores = np.asarray(scores, dtype=float).ravel()
-    labels = np.asarray(labels, dtype=bool).ravel()
-    order = np.argsort(-scores, kind="stable")
-    s, y = scores[order], labels[order]
-    last = np.r_[np.flatnonzero(np.diff(s)), len(s) - 1]  # end of each run of equal scores
-    tp = np.cumsum(y)[last]
-    fp = np.cumsum(~y)[last]
+    _, tp, fp = _cuts(scores, labels)
     return np.r_[0.0, fp / max(fp[-1], 1)], np.r_[0.0, tp / max(tp[-1], 1)]

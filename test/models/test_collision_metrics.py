@@ -21,3 +21,14 @@ def test_recall_at_precision_without_an_answer_is_nan():
     assert np.isnan(recall_at_precision(np.array([0.1, 0.9, 0.2, 0.8]), labels, 0.9)[0])
     assert np.isnan(recall_at_precision(np.ones(3), np.ones(3, dtype=bool), 0.5)[0])
     assert recall_at_precision(np.array([0.9, 0.1, 0.8, 0.2]), labels, 0.9) == (1.0, 0.8)
+
+
+def test_roc_curve_runs_from_origin_to_one_and_its_area_is_the_auroc(rng):
+    from latent_planner_ros.models.collision_metrics import auroc, roc_curve
+
+    labels = rng.random(300) < 0.4
+    p = np.clip(0.4 * labels + rng.normal(0.3, 0.2, 300), 0, 1).round(2)
+    fpr, tpr = roc_curve(p, labels)
+    assert (fpr[0], tpr[0], fpr[-1], tpr[-1]) == (0.0, 0.0, 1.0, 1.0)
+    assert np.all(np.diff(fpr) >= 0) and np.all(np.diff(tpr) >= 0)
+    assert abs(np.trapezoid(tpr, fpr) - auroc(p, labels)) < 1e-9
