@@ -1,8 +1,8 @@
 """Geometric collision backend: the arm as spheres against the observed point cloud.
 
 The differentiable cost samples a Euclidean distance field of the cloud (voxel grid, trilinear
-interpolation); the hard check uses exact nearest-point distances from a KD-tree, so no checked state
-has an observed point inside any of the arm's (conservative) spheres.
+interpolation); the hard check is exact (ball_query.py: an occupancy prefilter, then a KD-tree), so no checked
+state has an observed point inside any of the arm's (conservative) spheres.
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 from scipy.ndimage import distance_transform_edt
-from scipy.spatial import cKDTree
 
+from latent_planner_ros.planning.ball_query import BallQuery
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.spheres import panda_spheres
 from latent_planner_ros.robot.torch_fk import TorchFK
@@ -55,7 +55,7 @@ class GeometricBackend:
         cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
         cloud = cloud[np.all(np.isfinite(cloud), axis=1)]
         self.cloud = cloud
-        self._tree = cKDTree(cloud) if len(cloud) else None
+        self._balls = BallQuery(cloud)
         return cloud
 
     def set_scene(self, cloud: np.ndarray, origin: np.ndarray | None = None) -> None:
@@ -93,13 +93,13 @@ class GeometricBackend:
         return torch.sigmoid(logits.max(dim=1).values)
 
     def check(self, q: np.ndarray) -> np.ndarray:
+        """Hard decision (M,) bool for q (M, 7) [rad]: an observed point closer than radius + check_margin to the
+        centre of one of the arm's spheres."""
         q = np.atleast_2d(q)
-        if self._tree is None:
+        if not len(self.cloud):
             return np.zeros(len(q), dtype=bool)
         with torch.no_grad():
             c = self._centres(torch.as_tensor(q, dtype=torch.float32)).numpy()
-        # only points within the largest sphere radius matter: bounded queries stop early (~100x faster)
-        bound = float(self._radius.max()) + max(self.config.check_margin, 0.0) + 1e-6
-        d, _ = self._tree.query(c.reshape(-1, 3), distance_upper_bound=bound)
-        clear = d.reshape(c.shape[:2]) - self._radius.numpy()[None]
-        return np.any(clear < self.config.check_margin, axis=1)
+        radii = np.maximum(self._radius.numpy() + self.config.check_margin, 0.0)
+        hit = self._balls.occupied(c.reshape(-1, 3), np.tile(radii, len(q)))
+        return hit.reshape(c.shape[:2]).any(axis=1)
