@@ -12,13 +12,16 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+MAX_CELLS = 2_000_000
+"""largest occupancy grid (voxels); a cloud spread wider gets coarser voxels"""
+
 
 class BallQuery:
     """Point cloud (N, 3) [m] indexed for sphere-containment queries.
 
     Args:
         cloud: (N, 3) finite points [m].
-        cell: voxel edge [m] of the occupancy prefilter.
+        cell: voxel edge [m] of the occupancy prefilter (larger if the grid would exceed MAX_CELLS voxels).
     """
 
     def __init__(self, cloud: np.ndarray, cell: float = 0.02):
@@ -27,6 +30,10 @@ class BallQuery:
         self._tree: cKDTree | None = None
         if not len(self.cloud):
             return
+        extent = self.cloud.max(axis=0) - self.cloud.min(axis=0)
+        cells = float(np.prod(extent / self.cell + 3))
+        if cells > MAX_CELLS:  # a cloud spread far (outliers): coarser voxels keep the grid small, answers exact
+            self.cell *= (cells / MAX_CELLS) ** (1 / 3)
         self._lo = self.cloud.min(axis=0) - self.cell
         ijk = np.floor((self.cloud - self._lo) / self.cell).astype(np.intp)
         shape = ijk.max(axis=0) + 2

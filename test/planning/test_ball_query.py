@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import torch
 
-from latent_planner_ros.planning.ball_query import BallQuery
+from latent_planner_ros.planning.ball_query import MAX_CELLS, BallQuery
 from latent_planner_ros.planning.geometric_backend import GeometricBackend, GeometricBackendConfig
 
 
@@ -53,3 +53,14 @@ def test_geometric_check_equals_sphere_distances(margin):
     want = np.any(d - radius < margin, axis=1)
     assert 0 < want.sum() < len(q)
     np.testing.assert_array_equal(backend.check(q), want)
+
+
+def test_far_outliers_keep_the_grid_small_and_the_answers_exact():
+    rng = np.random.default_rng(2)
+    cloud = np.concatenate([rng.uniform(-0.5, 0.5, (500, 3)), [[1e5, -1e5, 3e4]]])
+    q = BallQuery(cloud)
+    assert q._prefix.size <= 1.25 * MAX_CELLS and q.cell > 0.02
+    centres = np.concatenate([cloud[:200] + rng.normal(0, 0.02, (200, 3)), [[1e5, -1e5, 3e4 + 0.01]]])
+    radii = rng.uniform(0.0, 0.05, len(centres))
+    radii[-1] = 0.02
+    np.testing.assert_array_equal(q.occupied(centres, radii), _brute(cloud, centres, radii))
