@@ -79,9 +79,11 @@ class LearnedBackend:
     def check(self, q: np.ndarray) -> np.ndarray:
         """Hard decision (M,) bool for configurations q (M, 7) [rad]."""
         q = np.atleast_2d(np.asarray(q, dtype=np.float32))
-        with torch.no_grad():
-            p = self.predictor.p_collision_q(self.embedding, torch.from_numpy(q)).numpy()
-        hits = p >= self.threshold
-        if self.geometric is not None:
-            hits |= self.geometric.check(q)
+        # the cheaper geometric check first: the network only sees the configurations it left open
+        hits = self.geometric.check(q) if self.geometric is not None else np.zeros(len(q), dtype=bool)
+        todo = np.flatnonzero(~hits)
+        if len(todo):
+            with torch.no_grad():
+                p = self.predictor.p_collision_q(self.embedding, torch.from_numpy(q[todo])).numpy()
+            hits[todo] = p >= self.threshold
         return hits

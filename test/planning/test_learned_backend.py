@@ -84,3 +84,19 @@ def test_a_cloud_is_encoded_with_its_camera_origin_and_a_non_finite_origin_count
     backend.set_scene(cloud, np.array([np.nan, 0.0, 1.0]))
     assert not torch.allclose(seen, blind)
     torch.testing.assert_close(backend.embedding.features, blind)
+
+
+def test_hard_check_is_network_or_spheres_and_the_network_sees_only_what_the_spheres_left_open(rng):
+    backend = LearnedBackend.load()
+    cloud = rng.uniform([0.3, -0.3, 0.0], [0.6, 0.3, 0.5], size=(800, 3))
+    backend.set_scene(cloud, np.array([1.5, 0.0, 1.0]))
+    q = Q_READY + rng.uniform(-1.0, 1.0, size=(200, 7)) * [1.5, 1.0, 1.0, 0.8, 1.5, 1.0, 1.5]
+    with torch.no_grad():
+        p = backend.predictor.p_collision_q(backend.embedding, torch.as_tensor(q, dtype=torch.float32)).numpy()
+    by_net, by_spheres = p >= backend.threshold, backend.geometric.check(q)
+    assert by_spheres.any() and (by_net & ~by_spheres).any() and (~by_net & ~by_spheres).any()
+    seen = []
+    net = backend.predictor.p_collision_q
+    backend.predictor.p_collision_q = lambda emb, qq: seen.append(len(qq)) or net(emb, qq)
+    np.testing.assert_array_equal(backend.check(q), by_net | by_spheres)
+    assert seen == [int((~by_spheres).sum())]
