@@ -44,7 +44,7 @@ class BallQuery:
         self._prefix = prefix
         self._top = np.asarray(prefix.shape) - 1
 
-    def _tree_(self) -> cKDTree:
+    def _kdtree(self) -> cKDTree:
         if self._tree is None:  # built on first need: most plans never ask the exact question
             self._tree = cKDTree(self.cloud)
         return self._tree
@@ -70,6 +70,6 @@ class BallQuery:
         cand = np.flatnonzero(count > 0)
         if len(cand):
             bound = float(radii[cand].max()) + 1e-9
-            d, _ = self._tree_().query(centres[cand], distance_upper_bound=bound)
+            d, _ = self._kdtree().query(centres[cand], distance_upper_bound=bound)
             hit[cand] |= d < radii[cand]
         return hit

@@ -1,8 +1,8 @@
-"""Classifier scores of the collision benchmark: the best recall at a precision floor."""
+"""Classifier scores of the collision benchmark: the best recall at a precision floor, the ROC curve."""
 
 import numpy as np
 
-from latent_planner_ros.models.collision_metrics import precision_recall, recall_at_precision
+from latent_planner_ros.models.collision_metrics import auroc, precision_recall, recall_at_precision, roc_curve
 
 
 def test_recall_at_precision_is_the_best_over_every_threshold(rng):
@@ -24,8 +24,6 @@ def test_recall_at_precision_without_an_answer_is_nan():
 
 
 def test_roc_curve_runs_from_origin_to_one_and_its_area_is_the_auroc(rng):
-    from latent_planner_ros.models.collision_metrics import auroc, roc_curve
-
     labels = rng.random(300) < 0.4
     p = np.clip(0.4 * labels + rng.normal(0.3, 0.2, 300), 0, 1).round(2)
     fpr, tpr = roc_curve(p, labels)
