@@ -64,3 +64,22 @@ def test_convex_hulls_are_conservative_and_close_to_the_meshes(rng):
     assert 0 < meshes.sum() and (meshes & ~hulls).sum() <= 0.05 * meshes.sum()
     assert CollisionChecker(convex=True).collisions(Q_READY) == (False, False)
     assert CollisionChecker(table=False, convex=True).collisions(np.array([0.0, 0.0, 0.0, -3.0, 0.0, 0.0, 0.0]))[0]
+
+
+def test_batch_broad_phase_agrees_with_every_pair_checked(rng):
+    """`feasible` (one broad-phase call per batch) decides exactly as `in_collision` (every active pair)."""
+    import pytest
+
+    from latent_planner_ros.robot.limits import Q_MAX, Q_MIN
+
+    q = rng.uniform(Q_MIN, Q_MAX, (600, 7))
+    q[:100, 3] = rng.uniform(-3.07, -2.6, 100)  # folded elbows: many self-collisions
+    for table, convex in ((True, True), (False, True), (True, False)):
+        checker = CollisionChecker(table=table, convex=convex)
+        batch = checker.feasible(q)
+        one_by_one = np.array([not checker.in_collision(qi) for qi in q])
+        np.testing.assert_array_equal(batch, one_by_one)
+        assert 0 < (~batch).sum() < len(q)  # both outcomes occur
+    assert CollisionChecker().feasible(np.zeros((0, 7))).shape == (0,)
+    with pytest.raises(ValueError, match="7 joints"):
+        CollisionChecker().feasible(np.zeros((3, 6)))
