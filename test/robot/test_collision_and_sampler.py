@@ -67,7 +67,8 @@ def test_convex_hulls_are_conservative_and_close_to_the_meshes(rng):
 
 
 def test_batch_broad_phase_agrees_with_every_pair_checked(rng):
-    """`feasible` (one broad-phase call per batch) decides exactly as `in_collision` (every active pair)."""
+    """`feasible` (one broad-phase call per batch) and `in_collision` (broad phase, one configuration) decide
+    exactly as the narrow phase on every active pair (`collisions`)."""
     import pytest
 
     from latent_planner_ros.robot.limits import Q_MAX, Q_MIN
@@ -78,7 +79,9 @@ def test_batch_broad_phase_agrees_with_every_pair_checked(rng):
         checker = CollisionChecker(table=table, convex=convex)
         batch = checker.feasible(q)
         one_by_one = np.array([not checker.in_collision(qi) for qi in q])
-        np.testing.assert_array_equal(batch, one_by_one)
+        every_pair = np.array([not any(checker.collisions(qi)) for qi in q])  # narrow phase on all pairs
+        np.testing.assert_array_equal(batch, every_pair)
+        np.testing.assert_array_equal(one_by_one, every_pair)
         assert 0 < (~batch).sum() < len(q)  # both outcomes occur
     assert CollisionChecker().feasible(np.zeros((0, 7))).shape == (0,)
     with pytest.raises(ValueError, match="7 joints"):
