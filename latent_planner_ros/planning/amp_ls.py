@@ -260,8 +260,10 @@ class AmpLs(PlanAdditions):
             self._escape_from = start_q
         s = LatentSearch(self, start_q, lr=cfg.plan_lr)
         t_setup = time.perf_counter() - t0
-        reason, winner = "step budget exhausted", None
-        for t in range(cfg.max_steps):
+        winner = self._direct_first(s, goal) if cfg.direct_first else None
+        straight = winner is not None
+        reason = "step budget exhausted" if winner is None else "reached"
+        for t in range(cfg.max_steps if winner is None else 0):
             ev = self._iterate(s, goal, accept=t > 0, lazy=cfg.lazy_check)
             if ev["reached"]:
                 winner, reason = ev["reached"][0], "reached"
@@ -296,6 +298,7 @@ class AmpLs(PlanAdditions):
         result.info["start_refused"] = start_refused
         result.info["goal_configurations"] = -1 if s.goal_qs is None else len(s.goal_qs)  # -1: not searched
         result.info["guided"] = bool(np.isfinite(s.guide_q[winner, 0]))
+        result.info["direct_first"] = straight  # solved by the straight segment before any optimisation step
         return result
 
     def _n_checks(self, q_from: np.ndarray, q_to: np.ndarray) -> int:

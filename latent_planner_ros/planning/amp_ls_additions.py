@@ -54,6 +54,20 @@ class PlanAdditions:
             return None
         return b if self._finish_to(s, b, sol.q) else None
 
+    def _direct_first(self, s: LatentSearch, goal: Goal) -> int | None:
+        """Straight first (`direct_first`): the exact finish's IK from the start, and the straight segment from the
+        start to its solution, hard-checked like a step; 0 (the seed whose path it becomes) if it is free."""
+        cfg = self.config
+        if cfg.finish_radius_m <= 0 or not cfg.shortcut:
+            return None
+        start = s.paths[0][0][0]
+        sol = solve_ik(
+            self.panda, goal, start, IkConfig(max_iters=cfg.finish_ik_iters, max_step_rad=cfg.finish_ik_step_rad)
+        )
+        if not sol.converged or np.abs(sol.q - start).max() > cfg.finish_max_rad:
+            return None
+        return 0 if self._direct(s, 0, sol.q) else None
+
     def _direct(self, s: LatentSearch, b: int, q_goal: np.ndarray | None = None) -> bool:
         """Shortcut first (open loop, with `shortcut` on): the straight segment from the start to seed b's last
         accepted state (or to q_goal (7,) [rad]), hard-checked like a step. If it is free it becomes the seed's

@@ -60,6 +60,10 @@ class AmpLsConfig:
     """damped-least-squares iterations of one exact-finish attempt"""
     finish_ik_step_rad: float = 0.3
     """largest joint change [rad] of one of those iterations"""
+    direct_first: bool = True
+    """open loop, with the exact finish and `shortcut` on: before the first optimisation step, run the exact
+    finish's IK from the start itself and try the straight segment to its solution (beyond the seed: a goal
+    reachable in a straight line is taken without optimising; otherwise the plan goes on as without it)"""
     finish_every: int = 2
     """iterations between two exact-finish attempts of one seed"""
     escape_rad: float = 0.05

@@ -136,13 +136,14 @@ def test_goal_guidance_finishes_a_plan_the_pose_loss_stalls_on(shipped_vae):
 
 
 class RefuseNear(NoCollision):
-    """The hard check refuses every state within 0.3 rad (max joint) of q_refused (7,)."""
+    """The hard check refuses every state within `radius` (0.3 rad, max joint) of q_refused (7,)."""
 
     def __init__(self, q_refused):
         self.q_refused = q_refused
+        self.radius = 0.3
 
     def check(self, q):
-        return np.abs(np.atleast_2d(q) - self.q_refused).max(axis=1) < 0.3
+        return np.abs(np.atleast_2d(q) - self.q_refused).max(axis=1) < self.radius
 
 
 def test_goal_configurations_reach_the_goal_and_pass_the_hard_check(shipped_vae):
@@ -237,3 +238,28 @@ def test_a_refused_straight_segment_is_not_checked_again_for_the_same_end(shippe
     other = end + np.array([0.0, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
     assert planner._direct(s, 0, other) and backend.calls > calls
     assert np.array_equal(s.paths[0][-1][-1], other) and s.pending[0] == []
+
+
+def test_straight_first_takes_a_free_straight_segment_without_optimising(shipped_vae):
+    goal = _goal_of(Q_READY + np.array([0.4, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3]))
+    base = dict(use_collision=True, n_seeds=4)
+    out = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(**base), seed=0).plan(Q_READY, goal)
+    assert out.success and out.info["direct_first"] and out.iterations == 0
+    steps = np.diff(out.q_path, axis=0)  # one straight joint-space segment from the start
+    np.testing.assert_allclose(steps, np.broadcast_to(steps[0], steps.shape), atol=1e-9)
+    assert np.abs(steps).max() <= AmpLsConfig().check_step_rad + 1e-9
+    off = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(direct_first=False, **base), seed=0).plan(Q_READY, goal)
+    assert off.success and not off.info["direct_first"] and off.iterations > 0
+
+
+def test_straight_first_refused_by_the_check_goes_on_optimising(shipped_vae, monkeypatch):
+    goal = _goal_of(Q_READY + np.array([0.4, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3]))
+    q_ik = original_ik(load_panda(), goal, Q_READY, amp_ls_additions.IkConfig(max_iters=50, max_step_rad=0.3)).q
+    middle = 0.5 * (Q_READY + q_ik)  # the straight segment's middle is refused, start and goal are not
+    refuse = RefuseNear(middle)
+    refuse.radius = 0.08
+    assert np.abs(Q_READY - middle).max() > 0.15 and np.abs(q_ik - middle).max() > 0.15
+    cfg = AmpLsConfig(use_collision=True, n_seeds=4, max_steps=150)
+    out = AmpLs(shipped_vae, refuse, cfg, seed=0).plan(Q_READY, goal)
+    assert not out.info["direct_first"] and not out.info["start_refused"] and out.iterations > 0
+    assert np.all(np.abs(out.q_path - middle).max(axis=1) >= 0.08)  # nothing refused is returned
