@@ -55,6 +55,10 @@ AMP_LS_VARIANTS: dict[str, AmpLsVariant] = {
     "amp_ls_no_finish": AmpLsVariant(
         "beyond the seed off: no exact IK finish, the latent optimisation reaches alone", {"finish_radius_m": 0.0}
     ),
+    "amp_ls_no_direct_first": AmpLsVariant(
+        "beyond the seed off: no straight segment to an IK solution from the start before optimising",
+        {"direct_first": False},
+    ),
     "amp_ls_no_shortcut": AmpLsVariant("beyond the seed off: no shortcutting of the path", {"shortcut": False}),
     "amp_ls_no_escape": AmpLsVariant(
         "beyond the seed off: a start refused by the hard check is not left (escape_rad 0)", {"escape_rad": 0.0}
