@@ -11,6 +11,7 @@ the broad phase too, about twice as fast as every pair.
 
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass, field
 
 import coal
@@ -23,6 +24,17 @@ from latent_planner_ros.robot.panda import PandaModel, load_panda
 TABLE_NAME = "table"
 TABLE_HALF_EXTENTS = (2.0, 2.0, 0.5)
 """Half extents [m] of the box that stands for the table (top face at z = 0)."""
+
+
+def _openmp() -> ctypes.CDLL | None:
+    """The process's OpenMP runtime (torch and pinocchio share one libgomp.so.1), or None if there is none."""
+    try:
+        return ctypes.CDLL("libgomp.so.1")
+    except OSError:
+        return None
+
+
+_OPENMP = _openmp()
 
 
 def _link_of(geometry_name: str) -> str:
@@ -87,6 +99,7 @@ class CollisionChecker:
         self._gdata = pin.GeometryData(geom)
         self._pool = None  # the broad-phase pool of `feasible`, built on first use
         self._manager = None  # the broad phase of `in_collision`, built on first use
+        self._manager_data = None
 
     def collisions(self, q: np.ndarray) -> tuple[bool, bool]:
         """(self-collision, table collision) for one configuration q (shape (7,), rad)."""
@@ -110,7 +123,8 @@ class CollisionChecker:
         """Boolean mask (N,) of collision-free configurations among q (shape (N, 7), rad).
 
         One call into pinocchio's broad phase for the whole batch (single-threaded); the active pairs are the
-        ones `in_collision` checks, so the answers are the same.
+        ones `in_collision` checks, so the answers are the same. That call sets the OpenMP thread count of the
+        process to its own (1); the count from before is restored, so torch keeps its threads.
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
         if q.shape[1] != self.panda.model.nq:
@@ -119,5 +133,10 @@ class CollisionChecker:
             return np.zeros(0, dtype=bool)
         if self._pool is None:
             self._pool = pin.TreeBroadPhaseManagerPool_DynamicAABBTreeCollisionManager(self.panda.model, self.geom, 1)
-        hits = pin.computeCollisionsInParallel(1, self._pool, np.asfortranarray(q.T), True)
+        threads = _OPENMP.omp_get_max_threads() if _OPENMP is not None else None
+        try:
+            hits = pin.computeCollisionsInParallel(1, self._pool, np.asfortranarray(q.T), True)
+        finally:
+            if threads is not None:
+                _OPENMP.omp_set_num_threads(threads)
         return ~np.asarray(hits, dtype=bool)

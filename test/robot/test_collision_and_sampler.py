@@ -86,3 +86,16 @@ def test_batch_broad_phase_agrees_with_every_pair_checked(rng):
     assert CollisionChecker().feasible(np.zeros((0, 7))).shape == (0,)
     with pytest.raises(ValueError, match="7 joints"):
         CollisionChecker().feasible(np.zeros((3, 6)))
+
+
+def test_batch_checks_leave_torch_threads_alone():
+    """pinocchio's batch call sets the process's OpenMP thread count (shared with torch) to 1; it is restored."""
+    import torch
+
+    before = torch.get_num_threads()
+    try:
+        torch.set_num_threads(2)
+        CollisionChecker(convex=True).feasible(np.zeros((4, 7)))
+        assert torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)
