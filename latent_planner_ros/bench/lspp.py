@@ -34,6 +34,7 @@ from latent_planner_ros.bench.lspp_scenarios import (
 )
 from latent_planner_ros.bench.report import bench_parser, write_report
 from latent_planner_ros.bench.table_report import summarise
+from latent_planner_ros.bench.workers import exit_with_parent
 
 SCENARIO_SEED = 2022
 """seed of the generated scenarios (the classifier's training data are seeds 1 and 2 of random pairs)"""
@@ -82,6 +83,7 @@ _RUNNER: LsppRunner | None = None
 
 def _init_worker(names: list[str], threads: int, classifier: str, lspp_overrides: dict) -> None:
     global _RUNNER
+    exit_with_parent()
     os.environ.setdefault("OMP_NUM_THREADS", str(threads))
     _RUNNER = LsppRunner(names, threads, classifier, lspp_overrides)
 

@@ -121,7 +121,9 @@ def generate_scenarios(
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
-    with ProcessPoolExecutor(workers, mp.get_context("spawn")) as ex:
+    from latent_planner_ros.bench.workers import exit_with_parent
+
+    with ProcessPoolExecutor(workers, mp.get_context("spawn"), initializer=exit_with_parent) as ex:
         futures = {k: ex.submit(_draw_count, k, n, seed) for k in counts}
         bar = tqdm(total=len(counts), desc="scenario sets", disable=not progress)
         out = {}

@@ -28,6 +28,7 @@ from latent_planner_ros.bench.report import bench_parser, write_report
 from latent_planner_ros.bench.scenarios import DEFAULT_SET, ScenarioError, ScenarioProblem, load_scenarios
 from latent_planner_ros.bench.table_planners import AMP_LS_VARIANTS, amp_ls_config, budgets, ompl_config, parse_planners
 from latent_planner_ros.bench.table_report import figures, markdown, summarise
+from latent_planner_ros.bench.workers import exit_with_parent
 from latent_planner_ros.data.camera import CameraConfig, sample_camera_pose
 
 POS_TOL = 0.01
@@ -176,6 +177,7 @@ _RUNNER: TableRunner | None = None
 
 def _init_worker(names: list[str], backend: str, table: bool, threads: int, checkpoint: str) -> None:
     global _RUNNER
+    exit_with_parent()
     os.environ.setdefault("OMP_NUM_THREADS", str(threads))
     _RUNNER = TableRunner(names, backend, table, threads, checkpoint)
 
