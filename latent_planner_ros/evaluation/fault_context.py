@@ -159,7 +159,24 @@ class Ctx:
     def resumes(self, label: str = "operation resumes") -> bool:
         t0 = time.monotonic()
         ok = self.operating()
-        return self.check(label, ok, f"goal reached {time.monotonic() - t0:.1f} s after recovery" if ok else "")
+        return self.check(
+            label, ok, f"goal reached {time.monotonic() - t0:.1f} s after recovery" if ok else self.story(t0)
+        )
+
+    def story(self, since: float) -> str:
+        """What the planner reported since `since`: its states in order with their counts, its last status
+        values (cut at 300 characters) and the current command rate, for the message of a failed check."""
+        statuses = self.probe.statuses_since("planner", since)
+        runs: list[list] = []
+        for s in statuses:
+            state = s.values.get("state", "?")
+            if runs and runs[-1][0] == state:
+                runs[-1][1] += 1
+            else:
+                runs.append([state, 1])
+        states = ", ".join(f"{state} x{n}" for state, n in runs) or "no status"
+        last = str(statuses[-1].values)[:300] if statuses else "-"
+        return f"planner states: {states}; last status: {last}; {self.command_rate():.0f} commands/s"
 
     def holds_after(self, since: float, what: str, timeout_s: float) -> bool:
         """Check that the planner reports holding (`what` in its status) and that the arm then stays put."""
