@@ -99,7 +99,7 @@ class CollisionChecker:
         self._gdata = pin.GeometryData(geom)
         self._pool = None  # the broad-phase pool of `feasible`, built on first use
         self._manager = None  # the broad phase of `in_collision`, built on first use
-        self._manager_data = None
+        self._manager_data = None  # the geometry data that manager updates (kept alive with it)
 
     def collisions(self, q: np.ndarray) -> tuple[bool, bool]:
         """(self-collision, table collision) for one configuration q (shape (7,), rad)."""
