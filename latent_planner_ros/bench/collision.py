@@ -29,6 +29,7 @@ from latent_planner_ros.models.collision_metrics import (
     calibration_bins,
     precision_recall,
     recall_at_precision,
+    recall_by_bins,
     roc_curve,
 )
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
@@ -37,6 +38,11 @@ from latent_planner_ros.planning.learned_backend import CHECK_THRESHOLD
 BENCH_SEED = 1000
 """Seed of the benchmark splits ("bench_seen", "bench_unseen"); training uses 0, validation 7."""
 SHARD = 10
+HIDDEN_M = 0.015
+"""A collision is "hidden" when no cloud point lies within this distance [m] of the arm's surface points: the
+camera saw nothing of what the arm hits, so only a prior over shapes can predict it."""
+GAP_EDGES_M = (0.0, 0.005, 0.01, HIDDEN_M, 0.03, 0.06, np.inf)
+"""bins of the distance [m] from the arm's surface points to the nearest cloud point, for recall per bin"""
 
 
 def bench_data(root: Path, family: str, name: str, n_scenes: int, per_kind: int) -> CollisionData:
@@ -129,6 +135,20 @@ def summarise(name: str, data: CollisionData, r: dict, threshold: float) -> dict
         f"scenes_{name}": len(data.scenes),
         f"cloud_points_median_{name}": float(np.median(r["points"])),
     }
+    gap = -r["geo"][near]  # distance [m] from the arm's surface points to the nearest cloud point
+    hidden = recall_by_bins(r["p"][near], y[near], gap, (HIDDEN_M, np.inf), threshold)
+    visible = recall_by_bins(r["p"][near], y[near], gap, (0.0, HIDDEN_M), threshold)
+    n_hidden, n_pos = hidden["count"][0], max(int(y[near].sum()), 1)
+    missed = (r["p"][near] < threshold) & y[near]
+    out.update(
+        {
+            f"hidden_fraction_near_{name}": n_hidden / n_pos,
+            f"recall_near_hidden_{name}": hidden["recall"][0],
+            f"recall_near_visible_{name}": visible["recall"][0],
+            f"missed_hidden_share_near_{name}": float((gap[missed] >= HIDDEN_M).mean()) if missed.any() else 0.0,
+            f"recall_by_cloud_gap_near_{name}": recall_by_bins(r["p"][near], y[near], gap, GAP_EDGES_M, threshold),
+        }
+    )
     return out
 
 
@@ -159,6 +179,22 @@ def figures(results: dict, data: dict, scores: dict, meta: dict) -> dict[str, pl
     ax.set(xlabel="false positive rate", ylabel="true positive rate", title="ROC, near-object queries")
     ax.legend(fontsize=8)
     figs["roc"] = fig
+    fig, ax = plt.subplots(figsize=(6, 4))
+    edges = list(zip(GAP_EDGES_M[:-1], GAP_EDGES_M[1:], strict=True))
+    labels = [f"{100 * lo:g}-{100 * hi:g}" if np.isfinite(hi) else f">{100 * lo:g}" for lo, hi in edges]
+    for k, name in enumerate(("seen", "unseen")):
+        bins = results[f"recall_by_cloud_gap_near_{name}"]
+        x = np.arange(len(labels)) + (k - 0.5) * 0.38
+        ax.bar(x, bins["recall"], width=0.38, label=name)
+        for xi, r, c in zip(x, bins["recall"], bins["count"], strict=True):
+            if c:
+                ax.text(xi, r + 0.01, str(c), ha="center", fontsize=7)
+    ax.axvline(GAP_EDGES_M.index(HIDDEN_M) - 0.5, color="k", ls=":", lw=1)
+    ax.set_xticks(np.arange(len(labels)), labels)
+    ax.set(xlabel="arm to nearest cloud point [cm]", ylabel=f"recall at p >= {results['threshold']}", ylim=(0, 1.08),
+           title="Colliding near-object queries: recall by what the camera saw (n on bars)")  # fmt: skip
+    ax.legend(loc="lower left")
+    figs["recall_by_cloud_gap"] = fig
     history = meta.get("history", [])
     if history:
         fig, ax = plt.subplots(figsize=(7, 4))
@@ -185,6 +221,13 @@ def markdown(results: dict, ckpt: str, threshold: float) -> str:
         ("best recall at precision >= 0.88, near (any threshold)", "recall_at_precision_0.88_near"),
         ("... its threshold", "threshold_at_precision_0.88_near"),
         ("expected calibration error, near", "ece_near"),
+        (
+            f"share of hidden collisions (no cloud point within {100 * HIDDEN_M:.1f} cm of the arm), near",
+            "hidden_fraction_near",
+        ),
+        (f"recall at p >= {threshold}, near, hidden collisions", "recall_near_hidden"),
+        (f"recall at p >= {threshold}, near, the other collisions", "recall_near_visible"),
+        ("share of the missed collisions that are hidden, near", "missed_hidden_share_near"),
         ("collision rate, uniform / near", None),
         ("scenes / queries", None),
     ]

@@ -68,3 +68,16 @@ def roc_curve(scores: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.nd
     """False and true positive rates (K,) over all thresholds, from (0, 0) to (1, 1)."""
     _, tp, fp = _cuts(scores, labels)
     return np.r_[0.0, fp / max(fp[-1], 1)], np.r_[0.0, tp / max(tp[-1], 1)]
+
+
+def recall_by_bins(p: np.ndarray, labels: np.ndarray, x: np.ndarray, edges, threshold: float) -> dict:
+    """Recall of the decision p >= threshold among the positives, per bin edges[k] <= x < edges[k + 1] of an
+    auxiliary quantity x (same shape as p): {"recall": [K] (nan in empty bins), "count": [K] positives}."""
+    p, x = np.asarray(p, dtype=float).ravel(), np.asarray(x, dtype=float).ravel()
+    pos = np.asarray(labels, dtype=bool).ravel()
+    recall, count = [], []
+    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+        m = pos & (x >= lo) & (x < hi)
+        count.append(int(m.sum()))
+        recall.append(float((p[m] >= threshold).mean()) if m.any() else float("nan"))
+    return {"recall": recall, "count": count}

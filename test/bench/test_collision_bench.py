@@ -23,4 +23,13 @@ def test_bench_collision_writes_its_json(tmp_path):
     # the shipped network reads the camera origin: the bench also scores it with the origin withheld
     for key in ["auroc_near_unseen_no_origin", "precision_near_unseen_no_origin", "recall_near_unseen_no_origin"]:
         assert 0.0 <= data[key] <= 1.0, key
+    # recall split by what the camera saw: the two parts mix back into the near recall at the threshold
+    for name in ("seen", "unseen"):
+        share, bins = data[f"hidden_fraction_near_{name}"], data[f"recall_by_cloud_gap_near_{name}"]
+        assert 0.0 <= share <= 1.0 and 0.0 <= data[f"missed_hidden_share_near_{name}"] <= 1.0
+        parts = [(data[f"recall_near_hidden_{name}"], share), (data[f"recall_near_visible_{name}"], 1 - share)]
+        mixed = sum(r * w for r, w in parts if w > 0)
+        assert abs(mixed - data[f"recall_near_{name}"]) < 1e-9, name
+        assert sum(bins["count"]) > 0 and len(bins["recall"]) == len(bins["count"])
+    assert (out / "collision_recall_by_cloud_gap.png").exists()
     assert list(out.glob("collision_*.png"))
