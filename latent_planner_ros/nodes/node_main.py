@@ -1,7 +1,13 @@
-"""The shared main() of the long-running nodes: start, spin, and shut down cleanly on Ctrl-C or SIGTERM."""
+"""The shared main() of the long-running nodes: start, spin, and shut down cleanly on Ctrl-C or SIGTERM.
+
+A node that seems stuck can be asked where it is: SIGUSR1 (`kill -USR1 PID`) prints every thread's Python
+stack to stderr and the node carries on.
+"""
 
 from __future__ import annotations
 
+import faulthandler
+import signal
 import sys
 from collections.abc import Callable
 
@@ -18,6 +24,7 @@ def run_node(name: str, factory: Callable[[], Node], startup_errors: tuple[type[
     "cannot start: ..." and gives exit code 2; Ctrl-C or an external shutdown gives 0. Any other error is
     raised, except one racing the shutdown (a callback publishing after SIGTERM).
     """
+    faulthandler.register(signal.SIGUSR1, all_threads=True)
     rclpy.init(args=sys.argv)
     node = None
     try:

@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -120,10 +121,13 @@ def _stop(procs: list[subprocess.Popen]) -> str:
     for p in procs:
         try:
             out, _ = p.communicate(timeout=20)
-        except subprocess.TimeoutExpired:
+        except subprocess.TimeoutExpired:  # ask for its stacks (node_main: SIGUSR1), then kill it
+            p.send_signal(signal.SIGUSR1)
+            time.sleep(2.0)
             p.kill()
             out, _ = p.communicate()
-        logs.append(out[-3000:])
+            out += f"\n[test] {p.args[4]} did not exit within 20 s of SIGINT; its stacks are above"
+        logs.append(out[-6000:])
     return "\n".join(logs)
 
 
