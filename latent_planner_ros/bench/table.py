@@ -29,7 +29,7 @@ from latent_planner_ros.bench.scenarios import DEFAULT_SET, ScenarioError, Scena
 from latent_planner_ros.bench.table_planners import AMP_LS_VARIANTS, amp_ls_config, budgets, ompl_config, parse_planners
 from latent_planner_ros.bench.table_report import figures, markdown, summarise
 from latent_planner_ros.bench.workers import exit_with_parent
-from latent_planner_ros.data.camera import CameraConfig, sample_camera_pose
+from latent_planner_ros.data.camera import CameraConfig, planning_crop, sample_camera_pose
 
 POS_TOL = 0.01
 """position tolerance of success [m] (the seed's 1 cm)"""
@@ -42,8 +42,8 @@ CLOUD_SEED = 9000
 def problem_cloud(
     problem: ScenarioProblem, index: int, table: bool, camera: CameraConfig | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The point cloud (N, 3) float32 [m] in `world` a depth camera sees of the problem's true obstacles, and
-    the camera's optical centre (3,) [m].
+    """The point cloud (N, 3) float32 [m] in `world` a depth camera sees of the problem's true obstacles, cropped
+    to the sim camera's box (`planning_crop`: up to the arm's reach), and the camera's optical centre (3,) [m].
 
     The viewpoint is the problem's camera, else drawn from the camera ranges with a seed from `index`;
     the depth noise is seeded by the camera's seed (else `index`), so the cloud is the same on every run.
@@ -62,7 +62,7 @@ def problem_cloud(
     depth = render_depth(problem.scene, pose, cfg.intrinsics, table=table)
     depth[depth > cfg.max_depth] = np.inf
     depth = add_depth_noise(depth, rng, cfg.depth_noise, cfg.depth_noise_quadratic)
-    return crop(depth_to_points(depth, pose, cfg.intrinsics), cfg.crop_min, cfg.crop_max), pose[:3, 3].copy()
+    return crop(depth_to_points(depth, pose, cfg.intrinsics), *planning_crop()), pose[:3, 3].copy()
 
 
 class ForeignLatentBackend:

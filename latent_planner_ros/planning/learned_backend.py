@@ -14,6 +14,7 @@ import torch
 
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
 from latent_planner_ros.models.scene_encoder import SceneEmbedding
+from latent_planner_ros.perception.scene_input import crop_to_bounds
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from msg_adapters import cloud_to_embedding
 
@@ -49,7 +50,9 @@ class LearnedBackend:
     # -- scene ------------------------------------------------------------------------------------
     def set_scene(self, scene: SceneEmbedding | np.ndarray, origin: np.ndarray | None = None) -> None:
         """A scene embedding (from the scene_encoder node), or a raw cloud (N, 3) [m] encoded here, seen from
-        the camera origin (3,) [m] in `world` if known (a non-finite origin counts as unknown)."""
+        the camera origin (3,) [m] in `world` if known (a non-finite origin counts as unknown). The network
+        encodes the points inside its workspace box (as the scene_encoder node crops them); the geometric part
+        of the hard check keeps every point."""
         if isinstance(scene, SceneEmbedding):
             self.embedding = scene
             return
@@ -57,7 +60,8 @@ class LearnedBackend:
         cloud = cloud[np.all(np.isfinite(cloud), axis=1)]
         if origin is not None and not np.all(np.isfinite(np.asarray(origin, dtype=float))):
             origin = None
-        self.embedding = self.predictor.encode(cloud, origin)
+        enc = self.predictor.net.config.encoder  # the network sees its workspace box, as in training
+        self.embedding = self.predictor.encode(crop_to_bounds(cloud, enc.bounds_min, enc.bounds_max), origin)
         self.set_cloud(cloud)
 
     def set_cloud(self, cloud: np.ndarray) -> None:

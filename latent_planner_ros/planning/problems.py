@@ -7,11 +7,11 @@ camera sees of it. Everything is seeded, so a benchmark run can be repeated exac
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from latent_planner_ros.data.camera import CameraConfig
+from latent_planner_ros.data.camera import CameraConfig, planning_crop
 from latent_planner_ros.data.labels import CollisionLabeler
 from latent_planner_ros.data.render import scene_view
 from latent_planner_ros.data.scene import Scene
@@ -68,6 +68,8 @@ def cluttered_problems(
     collision (exact coal labels).
     """
     rng = np.random.default_rng(seed)
+    low, high = planning_crop()  # the planners' clouds reach as high as the arm
+    camera = replace(camera or CameraConfig(), crop_min=low, crop_max=high)
     sampler = FeasibleSampler(rng)
     out: list[Problem] = []
     while len(out) < n:

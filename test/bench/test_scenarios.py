@@ -9,7 +9,9 @@ import pytest
 from latent_planner_ros.bench.scenario_generator import GeneratorConfig, direct_motion_collides, generate_set
 from latent_planner_ros.bench.scenarios import (
     DEFAULT_SET,
+    CameraSpec,
     ScenarioError,
+    ScenarioProblem,
     load_scenarios,
     save_scenarios,
     set_from_dict,
@@ -158,3 +160,25 @@ def test_shipped_default_set():
     s = load_scenarios()
     assert len(s.problems) == 100 and s.table
     assert all(p.goal_q is not None and p.camera is not None and p.obstacles for p in s.problems)
+
+
+def test_the_harness_cloud_reaches_as_high_as_the_arm():
+    """A shelf board 0.75 m above the table (above the collision network's box, 0.55 m) is in the planners'
+    cloud: the harness crops like the sim camera, up to the arm's reach."""
+    from latent_planner_ros.bench.table import problem_cloud
+    from latent_planner_ros.data.camera import CameraConfig, planning_crop
+    from latent_planner_ros.data.obstacles import Box
+
+    board = Box((0.5, 0.0, 0.75), (0.0, 0.0, 0.0, 1.0), (0.15, 0.2, 0.01))
+    problem = ScenarioProblem(
+        start=np.zeros(7),
+        goal_position=np.array([0.5, 0.0, 0.3]),
+        goal_quaternion_xyzw=np.array([1.0, 0.0, 0.0, 0.0]),
+        obstacles=(board,),
+        camera=CameraSpec(eye=(1.5, 0.3, 1.6), target=(0.5, 0.0, 0.3), seed=0),
+    )
+    cloud, origin = problem_cloud(problem, 0, table=True)
+    on_board = np.abs(cloud[:, 2] - 0.76) < 0.01
+    assert on_board.sum() > 50 and CameraConfig().crop_max[2] < 0.75 < planning_crop()[1][2]
+    low, high = (np.asarray(c) for c in planning_crop())
+    assert np.all(cloud >= low - 1e-6) and np.all(cloud <= high + 1e-6)

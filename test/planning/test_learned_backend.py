@@ -86,6 +86,25 @@ def test_a_cloud_is_encoded_with_its_camera_origin_and_a_non_finite_origin_count
     torch.testing.assert_close(backend.embedding.features, blind)
 
 
+def test_points_above_the_networks_box_reach_the_hard_check_but_not_the_encoder(rng):
+    torch.manual_seed(0)
+    config = CollisionNetConfig(encoder=SceneEncoderConfig(visibility=True, conv_channels=(8, 6)), hidden=(16,))
+    vae = RobotStateVAE(VaeConfig(hidden=16, layers=1))
+    backend = LearnedBackend(CollisionPredictor(CollisionNet(config), vae), threshold=1.1)  # network never refuses
+    low = rng.uniform([0.3, -0.2, 0.0], [0.5, 0.2, 0.3], size=(500, 3)).astype(np.float32)
+    elbow = load_panda().fk(Q_READY, "panda_link5").translation  # 0.70 m up: above the box (0.55 m)
+    assert elbow[2] > config.encoder.bounds_max[2]
+    # a shelf between the camera and the box: without the crop it would hide the box's voxels from the camera
+    high = np.concatenate([rng.uniform([0.2, -0.3, 0.8], [0.6, 0.3, 0.82], size=(400, 3)), elbow[None]])
+    origin = np.array([0.4, 0.0, 1.6])
+    backend.set_scene(low, origin)
+    alone = backend.embedding.features.clone()
+    assert not backend.check(Q_READY[None]).any()
+    backend.set_scene(np.concatenate([low, high.astype(np.float32)]), origin)
+    torch.testing.assert_close(backend.embedding.features, alone)  # the network's input is its box, as trained
+    assert backend.check(Q_READY[None]).all()  # the spheres see the point in the elbow
+
+
 def test_hard_check_is_network_or_spheres_and_the_network_sees_only_what_the_spheres_left_open(rng):
     backend = LearnedBackend.load()
     cloud = rng.uniform([0.3, -0.3, 0.0], [0.6, 0.3, 0.5], size=(800, 3))
