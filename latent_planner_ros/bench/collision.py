@@ -19,7 +19,7 @@ from scipy.spatial import cKDTree
 from latent_planner_ros.bench.report import bench_parser, write_report
 from latent_planner_ros.data.camera import CameraConfig
 from latent_planner_ros.data.dataset import CollisionData, DatasetConfig, generate_dataset
-from latent_planner_ros.data.labels import link_poses
+from latent_planner_ros.data.labels import CollisionLabeler, link_poses
 from latent_planner_ros.data.link_geometry import LABEL_LINKS, link_geometry
 from latent_planner_ros.data.queries import QuerySamplerConfig
 from latent_planner_ros.data.render import scene_cloud, scene_view
@@ -152,6 +152,33 @@ def summarise(name: str, data: CollisionData, r: dict, threshold: float) -> dict
     return out
 
 
+def outside_box(data: CollisionData, low, high) -> np.ndarray:
+    """(M,) bool: the colliding near-object configurations whose every contact point (coal) with the scene lies
+    outside the box [low, high] [m]: the part they hit is outside the volume the network is given."""
+    out = np.zeros(len(data.labels), dtype=bool)
+    low, high = np.asarray(low), np.asarray(high)
+    for i, scene in enumerate(data.scenes):
+        rows = np.flatnonzero((data.scene == i) & data.near & data.labels)
+        if len(rows):
+            points = CollisionLabeler(scene).contact_points(data.q[rows])
+            out[rows] = [len(p) > 0 and not np.any(np.all((p >= low) & (p <= high), axis=1)) for p in points]
+    return out
+
+
+def box_split(name: str, data: CollisionData, r: dict, outside: np.ndarray, threshold: float) -> dict:
+    """Near-object scores without the collisions outside the network's box, and its recall on those."""
+    near, y, p = data.near, data.labels, r["p"]
+    keep = near & ~outside
+    prec, rec = precision_recall(p[keep], y[keep], threshold)
+    return {
+        f"outside_box_share_near_{name}": float(outside.sum() / max(int((near & y).sum()), 1)),
+        f"recall_near_outside_box_{name}": float((p[outside] >= threshold).mean()) if outside.any() else float("nan"),
+        f"auroc_near_in_box_{name}": auroc(p[keep], y[keep]),
+        f"precision_near_in_box_{name}": prec,
+        f"recall_near_in_box_{name}": rec,
+    }
+
+
 def figures(results: dict, data: dict, scores: dict, meta: dict) -> dict[str, plt.Figure]:
     figs = {}
     fig, ax = plt.subplots(figsize=(5, 5))
@@ -228,6 +255,10 @@ def markdown(results: dict, ckpt: str, threshold: float) -> str:
         (f"recall at p >= {threshold}, near, hidden collisions", "recall_near_hidden"),
         (f"recall at p >= {threshold}, near, the other collisions", "recall_near_visible"),
         ("share of the missed collisions that are hidden, near", "missed_hidden_share_near"),
+        ("share of collisions outside the network's box (every contact), near", "outside_box_share_near"),
+        (f"recall at p >= {threshold}, near, those outside the box", "recall_near_outside_box"),
+        ("AUROC, near, without the collisions outside the box", "auroc_near_in_box"),
+        (f"precision / recall at p >= {threshold}, near, without them", None),
         ("collision rate, uniform / near", None),
         ("scenes / queries", None),
     ]
@@ -247,6 +278,11 @@ def markdown(results: dict, ckpt: str, threshold: float) -> str:
         elif label.startswith("collision"):
             cells = [
                 f"{results[f'positive_rate_uniform_{n}']:.3f} / {results[f'positive_rate_near_{n}']:.3f}"
+                for n in ("seen", "unseen")
+            ]
+        elif label.startswith("precision / recall"):
+            cells = [
+                f"{results[f'precision_near_in_box_{n}']:.3f} / {results[f'recall_near_in_box_{n}']:.3f}"
                 for n in ("seen", "unseen")
             ]
         else:
@@ -297,8 +333,11 @@ def main(argv: list[str]) -> int:
     }
     scores = {name: evaluate_family(pred, d, seed=BENCH_SEED + k) for k, (name, d) in enumerate(data.items())}
     results: dict = {}
+    box = pred.net.config.encoder
     for name in ("seen", "unseen"):
         results.update(summarise(name, data[name], scores[name], args.threshold))
+        outside = outside_box(data[name], box.bounds_min, box.bounds_max)
+        results.update(box_split(name, data[name], scores[name], outside, args.threshold))
     if pred.net.config.encoder.visibility:  # the same held-out clouds, their camera origins withheld
         blind = evaluate_family(pred, data["unseen"], seed=BENCH_SEED + 1, with_origin=False)
         near, y = data["unseen"].near, data["unseen"].labels

@@ -72,6 +72,28 @@ class CollisionLabeler:
                     break
         return out
 
+    def contact_points(self, q: np.ndarray) -> list[np.ndarray]:
+        """Contact points (K, 3) [m] in `world` of each configuration q (N, 7) [rad] with the obstacles (coal's
+        contacts of every colliding link part and obstacle; (0, 3) for a free configuration)."""
+        request = coal.CollisionRequest()
+        request.enable_contact = True
+        request.num_max_contacts = 4
+        result = coal.CollisionResult()
+        poses = link_poses(np.atleast_2d(q))
+        out = []
+        for pose in poses:
+            points = []
+            for link, parts in enumerate(self.links.parts):
+                for geom_l, place in parts:
+                    t = pose[link] @ place
+                    tf_l = coal.Transform3s(t[:3, :3], t[:3, 3])
+                    for geom_o, tf_o in self.objects:
+                        result.clear()
+                        if coal.collide(geom_l, tf_l, geom_o, tf_o, request, result):
+                            points += [np.array(c.pos, dtype=float) for c in result.getContacts()]
+            out.append(np.array(points, dtype=float).reshape(-1, 3))
+        return out
+
     def label(self, q: np.ndarray) -> np.ndarray:
         """Per-link collision (N, L) bool for configurations q (N, 7) [rad]; any(axis=1) is the global label."""
         return self.label_poses(link_poses(q))

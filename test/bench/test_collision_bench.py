@@ -32,4 +32,37 @@ def test_bench_collision_writes_its_json(tmp_path):
         assert abs(mixed - data[f"recall_near_{name}"]) < 1e-9, name
         assert sum(bins["count"]) > 0 and len(bins["recall"]) == len(bins["count"])
     assert (out / "collision_recall_by_cloud_gap.png").exists()
+    # collisions outside the network's box (every contact above or beside it) are split off as well
+    for name in ("seen", "unseen"):
+        share = data[f"outside_box_share_near_{name}"]
+        assert 0.0 <= share <= 1.0 and 0.0 <= data[f"auroc_near_in_box_{name}"] <= 1.0
+        if share == 0.0:
+            assert data[f"recall_near_in_box_{name}"] == data[f"recall_near_{name}"]
+            assert data[f"auroc_near_in_box_{name}"] == data[f"auroc_near_{name}"]
     assert list(out.glob("collision_*.png"))
+
+
+def test_collisions_beyond_the_networks_box_are_found_by_their_contacts():
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from latent_planner_ros.bench.collision import outside_box
+    from latent_planner_ros.data.obstacles import Box
+    from latent_planner_ros.data.scene import Scene
+    from latent_planner_ros.robot.limits import Q_READY
+    from latent_planner_ros.robot.panda import load_panda
+
+    hand = load_panda().fk(Q_READY, "panda_hand").translation  # 0.59 m up
+    box = Box(tuple(float(x) for x in hand), (0.0, 0.0, 0.0, 1.0), (0.03, 0.03, 0.03))
+    far = Q_READY.copy()
+    far[0] += 2.5
+    data = SimpleNamespace(
+        scenes=[Scene(obstacles=(box,))],
+        scene=np.zeros(3, dtype=int),
+        near=np.array([True, True, False]),
+        labels=np.array([True, False, True]),  # the third is not a near query: never split off
+        q=np.stack([Q_READY, far, Q_READY]),
+    )
+    assert outside_box(data, (0.0, -0.6, -0.05), (1.0, 0.6, 0.55)).tolist() == [True, False, False]
+    assert outside_box(data, (0.0, -0.6, -0.05), (1.0, 0.6, 1.0)).tolist() == [False, False, False]

@@ -78,3 +78,16 @@ def test_a_link_inside_a_big_box_is_in_collision():
     elbow = link_poses(Q_READY[None])[0, LABEL_LINKS.index("panda_link4"), :3, 3]
     scene = Scene((Box(tuple(elbow), IDENTITY, (0.3, 0.3, 0.3)),))
     assert CollisionLabeler(scene).label(Q_READY[None])[0, LABEL_LINKS.index("panda_link4")]
+
+
+def test_contact_points_lie_where_the_arm_meets_the_obstacle():
+    """A box around the hand at the ready pose: contacts near the hand, inside the box; none for a free pose."""
+    hand = load_panda().fk(Q_READY, "panda_hand").translation
+    box = Box(tuple(float(x) for x in hand), IDENTITY, (0.05, 0.05, 0.05))
+    labeler = CollisionLabeler(Scene(obstacles=(box,)))
+    far = Q_READY.copy()
+    far[0] += 2.5  # swing the arm away from the box
+    assert labeler.label(np.stack([Q_READY, far])).any(1).tolist() == [True, False]
+    touching, free = labeler.contact_points(np.stack([Q_READY, far]))
+    assert len(touching) > 0 and free.shape == (0, 3)
+    assert np.all(np.abs(touching - hand) <= 0.05 + 0.02)  # in the box (coal's contact lies in the overlap)
