@@ -3,7 +3,10 @@
 Per scene one cloud from a fresh viewpoint; queries are uniform feasible configurations and configurations
 near the objects, labelled exactly with coal. Reports AUROC (all and near queries), precision and recall at
 the planner's threshold, a geometric reference (minus the distance from the links' surface points to the
-nearest cloud point), encode and query times, a calibration plot, ROC curves and the training curve.
+nearest cloud point), encode and query times, a calibration plot, ROC curves and the training curve. The
+near-object collisions are also split by what the camera saw of them (hidden: no cloud point within HIDDEN_M
+of the arm; recall per distance bin, plotted) and by where they are (every contact outside the network's
+workspace box, whose points it is never given).
 """
 
 from __future__ import annotations
