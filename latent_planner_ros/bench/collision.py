@@ -12,6 +12,7 @@ workspace box, whose points it is never given).
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -20,7 +21,7 @@ import torch
 from scipy.spatial import cKDTree
 
 from latent_planner_ros.bench.report import bench_parser, write_report
-from latent_planner_ros.data.camera import CameraConfig
+from latent_planner_ros.data.camera import CameraConfig, planning_crop
 from latent_planner_ros.data.dataset import CollisionData, DatasetConfig, generate_dataset
 from latent_planner_ros.data.labels import CollisionLabeler, link_poses
 from latent_planner_ros.data.link_geometry import LABEL_LINKS, link_geometry
@@ -36,6 +37,7 @@ from latent_planner_ros.models.collision_metrics import (
     roc_curve,
 )
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
+from latent_planner_ros.perception.scene_input import crop_to_bounds
 from latent_planner_ros.planning.learned_backend import CHECK_THRESHOLD
 
 BENCH_SEED = 1000
@@ -68,16 +70,23 @@ def geometric_score(q: np.ndarray, tree: cKDTree) -> np.ndarray:
 
 def evaluate_family(pred: CollisionPredictor, data: CollisionData, seed: int, with_origin: bool = True) -> dict:
     """Scores of the predictor and the geometric reference on every labelled configuration of `data`; the
-    predictor is given each cloud's camera origin unless with_origin is False."""
+    predictor is given each cloud's camera origin unless with_origin is False.
+
+    Each cloud is cropped like the sim camera's (`planning_crop`, up to the arm's reach), as the planners get
+    it; the predictor encodes the points inside its network's box (as the planner and the scene_encoder node
+    crop them), the geometric reference uses them all."""
     rng = np.random.default_rng(seed)
-    camera = CameraConfig()
+    low, high = planning_crop()
+    camera = replace(CameraConfig(), crop_min=low, crop_max=high)
+    box = pred.net.config.encoder
     p, link_p, geo, enc_ms, n_points = [], [], [], [], []
     for i, scene in enumerate(data.scenes):
         cloud, eye = scene_view(scene, rng, camera)
+        inside = crop_to_bounds(cloud, box.bounds_min, box.bounds_max)
         t0 = time.perf_counter()
-        emb = pred.encode(cloud, eye if with_origin else None)
+        emb = pred.encode(inside, eye if with_origin else None)
         enc_ms.append((time.perf_counter() - t0) * 1000)
-        n_points.append(len(cloud))
+        n_points.append(len(inside))
         q = data.q[data.scene == i]
         with torch.no_grad():
             qt = torch.as_tensor(q)

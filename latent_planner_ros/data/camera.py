@@ -72,9 +72,9 @@ class CameraConfig:
     max_depth: float = 4.0
     """rays that hit nothing within this depth [m] give no point"""
     crop_min: tuple[float, float, float] = (0.0, -0.6, -0.05)
-    """lower corner [m] of the workspace box the cloud is cropped to (`world`): the collision network's box, for
-    its training and benchmark clouds (clouds for planners use `planning_crop`)"""
-    crop_max: tuple[float, float, float] = (1.0, 0.6, 0.55)
+    """lower corner [m] of the workspace box the cloud is cropped to (`world`): by default the collision
+    network's default box (training crops to its network's box; clouds for planners use `planning_crop`)"""
+    crop_max: tuple[float, float, float] = (1.0, 0.6, 0.95)
     """upper corner [m] of the crop box"""
 
 
@@ -82,7 +82,7 @@ def planning_crop() -> tuple[tuple[float, float, float], tuple[float, float, flo
     """Lower and upper corner [m] in `world` of the box the benches crop the clouds they give the planners to: the
     sim camera's (`camera.crop_min` / `crop_max` of config/sim.yaml), which reaches 1.2 m up, the arm's reach,
     so no obstacle the arm can hit is cropped away. The collision network crops its own input to its smaller
-    workspace box (`CameraConfig.crop_min` / `crop_max`); the planners' geometric checks see the whole cloud."""
+    workspace box (its checkpoint's `grid`); the planners' geometric checks see the whole cloud."""
     from sim_bridge.camera_config import CameraConfig as SimCameraConfig
 
     sim = SimCameraConfig()

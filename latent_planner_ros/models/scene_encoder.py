@@ -23,7 +23,7 @@ class SceneEncoderConfig:
 
     bounds_min: tuple[float, float, float] = (0.0, -0.6, -0.05)
     """lower corner [m] of the encoded workspace box in `world`"""
-    bounds_max: tuple[float, float, float] = (1.0, 0.6, 0.55)
+    bounds_max: tuple[float, float, float] = (1.0, 0.6, 0.95)
     """upper corner [m]; (max - min) must be a whole number of voxels along each axis"""
     voxel_size: float = 0.1
     """edge length [m] of the cubic voxels"""

@@ -2,6 +2,7 @@
 
     python -m latent_planner_ros train collision --generate N [--workers W]      # make N labelled training scenes
     python -m latent_planner_ros train collision [--minutes N] [--out DIR] [--vae STEM] [--resume]
+    python -m latent_planner_ros train collision --grow STEM --box-max X Y Z --out DIR   # a larger box, no training
 
 Generation writes shards to --data (default data_cache/collision/train), skipping those that exist; it can run
 in the background while training: the trainer picks up new shards every `--refresh-every` steps.
@@ -31,7 +32,7 @@ from latent_planner_ros.models.collision_net_config import CollisionNetConfig
 from latent_planner_ros.models.scene_encoder import SceneEncoderConfig
 from latent_planner_ros.models.vae_io import load_vae, shipped_vae_path
 from latent_planner_ros.training.train_collision_config import TrainCollisionConfig
-from latent_planner_ros.training.train_collision_trainer import CollisionTrainer, EvalSet
+from latent_planner_ros.training.train_collision_trainer import CollisionTrainer, EvalSet, box_camera
 
 VAL_SEED = 7
 """Seed of the validation splits ("val_seen", "val_unseen"), disjoint from training and benchmark splits."""
@@ -53,6 +54,15 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, TrainCollisionConfi
     p.add_argument("--generate", type=int, metavar="N", help="generate N training scenes into --data, then exit")
     p.add_argument("--workers", type=int, default=1, help="processes for --generate")
     p.add_argument("--data-seed", type=int, default=0, help="seed of the generated training split")
+    p.add_argument(
+        "--grow",
+        type=Path,
+        metavar="STEM",
+        help="write the collision checkpoint STEM over the box --box-min/--box-max (its weights, no training; "
+        "models/collision_box.py) to OUT/best with its validation metrics, then exit",
+    )
+    p.add_argument("--box-min", type=float, nargs=3, metavar=("X", "Y", "Z"), help="with --grow: lower corner [m]")
+    p.add_argument("--box-max", type=float, nargs=3, metavar=("X", "Y", "Z"), help="with --grow: upper corner [m]")
     p.add_argument(
         "--no-visibility",
         action="store_true",
@@ -120,7 +130,7 @@ def train(args: argparse.Namespace, config: TrainCollisionConfig, argv: list[str
         net_config,
         vae,
         data,
-        validation_sets(Path(config.val_dir), config.val_scenes, CameraConfig()),
+        validation_sets(Path(config.val_dir), config.val_scenes, box_camera(net_config)),
         args.out,
         device,
     )
@@ -188,4 +198,8 @@ def main(argv: list[str] | None = None) -> int:
         torch.set_num_threads(1)
         generate_dataset(config.data, args.generate, split="train", seed=args.data_seed, workers=args.workers)
         return 0
+    if args.grow:
+        from latent_planner_ros.training.grow_collision import grow
+
+        return grow(args, config, argv)
     return train(args, config, argv)

@@ -34,6 +34,55 @@ class EvalSet:
         self.clouds, self.eyes = [v[0] for v in views], [v[1] for v in views]
 
 
+def box_camera(net_config: CollisionNetConfig) -> CameraConfig:
+    """The data camera with its crop at the network's workspace box (the points the network is given)."""
+    enc = net_config.encoder
+    return replace(CameraConfig(), crop_min=enc.bounds_min, crop_max=enc.bounds_max)
+
+
+def link_losses(
+    net: CollisionNet, link_logits: torch.Tensor, y: torch.Tensor, y_link: torch.Tensor, link_loss_weight: float
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Per-query loss (...) = global BCE + link_loss_weight * mean per-link BCE, and the global logits."""
+    logit = net.combine(link_logits)
+    per = F.binary_cross_entropy_with_logits(logit, y, reduction="none")
+    per_link = F.binary_cross_entropy_with_logits(link_logits, y_link, reduction="none").mean(-1)
+    return per + link_loss_weight * per_link, logit
+
+
+def query_tensors(
+    data: CollisionData, rows: np.ndarray, vae: RobotStateVAE, device: torch.device
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    """q (S, M, 7), z (S, M, latent), global labels (S, M), link labels (S, M, L) for rows (S, M) of `data`."""
+    q = torch.as_tensor(data.q[rows], device=device)
+    with torch.no_grad():
+        z = vae.encode_q(q.reshape(-1, 7)).reshape(*rows.shape, -1)
+    link = torch.as_tensor(data.link_labels[rows], dtype=torch.float32, device=device)
+    return q, z, link.amax(-1), link
+
+
+@torch.no_grad()
+def evaluate_net(
+    net: CollisionNet, vae: RobotStateVAE, ev: EvalSet, config: TrainCollisionConfig, device: torch.device
+) -> dict:
+    """Loss, AUROC (all and near configurations) and near precision/recall at config.threshold of `net` on a
+    validation set (one cloud per scene, as rendered in `ev`)."""
+    d = ev.data
+    ps, losses = [], []
+    for i, (cloud, eye) in enumerate(zip(ev.clouds, ev.eyes, strict=True)):
+        rows = np.flatnonzero(d.scene == i)[None]
+        eyes = torch.as_tensor(eye, dtype=torch.float32, device=device)[None]
+        grid = net.encoder(torch.as_tensor(cloud).to(device), eyes=eyes)
+        q, z, y, y_link = query_tensors(d, rows, vae, device)
+        per, logit = link_losses(net, net.link_logits(grid, q, z), y, y_link, config.link_loss_weight)
+        ps.append(torch.sigmoid(logit)[0].cpu().numpy())
+        losses.append(per.mean().item())
+    p, y, near = np.concatenate(ps), d.labels, d.near
+    prec, rec = precision_recall(p[near], y[near], config.threshold)
+    return {"loss": float(np.mean(losses)), "auroc": auroc(p, y), "auroc_near": auroc(p[near], y[near]),
+            "precision_near": prec, "recall_near": rec}  # fmt: skip
+
+
 class CollisionTrainer:
     """Owns the network, optimiser, data, RNG and history of one training run.
 
@@ -63,7 +112,7 @@ class CollisionTrainer:
         self.data = data
         self.val = val
         self.out = out
-        self.camera = CameraConfig()
+        self.camera = box_camera(net_config)
         self.rng = np.random.default_rng(config.seed)
         self.opt = torch.optim.Adam(self.net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
         self.iteration = 0
@@ -111,23 +160,14 @@ class CollisionTrainer:
     def _tensors(
         self, rows: np.ndarray, data: CollisionData | None = None
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-        """q (S, M, 7), z (S, M, latent), global labels (S, M), link labels (S, M, L) for rows (S, M) of `data`
-        (default: the training data)."""
-        data = self.data if data is None else data
-        q = torch.as_tensor(data.q[rows], device=self.device)
-        with torch.no_grad():
-            z = self.vae.encode_q(q.reshape(-1, 7)).reshape(*rows.shape, -1)
-        link = torch.as_tensor(data.link_labels[rows], dtype=torch.float32, device=self.device)
-        return q, z, link.amax(-1), link
+        """query_tensors of rows (S, M) of `data` (default: the training data)."""
+        return query_tensors(self.data if data is None else data, rows, self.vae, self.device)
 
     def losses(
         self, link_logits: torch.Tensor, y: torch.Tensor, y_link: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:
-        """Per-query loss (...) = global BCE + link_loss_weight * mean per-link BCE, and the global logits."""
-        logit = self.net.combine(link_logits)
-        per = F.binary_cross_entropy_with_logits(logit, y, reduction="none")
-        per_link = F.binary_cross_entropy_with_logits(link_logits, y_link, reduction="none").mean(-1)
-        return per + self.config.link_loss_weight * per_link, logit
+        """Per-query loss (...) and the global logits (`link_losses`)."""
+        return link_losses(self.net, link_logits, y, y_link, self.config.link_loss_weight)
 
     # -- one step -------------------------------------------------------------------------------
     def step(self, lr: float) -> dict:
@@ -166,25 +206,13 @@ class CollisionTrainer:
         return {"loss": loss.item(), "acc": acc, "recall": recall, "pos_frac": pos.float().mean().item()}
 
     # -- evaluation -----------------------------------------------------------------------------
-    @torch.no_grad()
     def evaluate_set(self, ev: EvalSet) -> dict:
         """AUROC (all and near configurations) and precision/recall at the threshold on a validation set."""
         self.net.eval()
-        d = ev.data
-        ps, losses = [], []
-        for i, (cloud, eye) in enumerate(zip(ev.clouds, ev.eyes, strict=True)):
-            rows = np.flatnonzero(d.scene == i)[None]
-            eyes = torch.as_tensor(eye, dtype=torch.float32, device=self.device)[None]
-            grid = self.net.encoder(torch.as_tensor(cloud).to(self.device), eyes=eyes)
-            q, z, y, y_link = self._tensors(rows, d)
-            per, logit = self.losses(self.net.link_logits(grid, q, z), y, y_link)
-            ps.append(torch.sigmoid(logit)[0].cpu().numpy())
-            losses.append(per.mean().item())
-        self.net.train()
-        p, y, near = np.concatenate(ps), d.labels, d.near
-        prec, rec = precision_recall(p[near], y[near], self.config.threshold)
-        return {"loss": float(np.mean(losses)), "auroc": auroc(p, y), "auroc_near": auroc(p[near], y[near]),
-                "precision_near": prec, "recall_near": rec}  # fmt: skip
+        try:
+            return evaluate_net(self.net, self.vae, ev, self.config, self.device)
+        finally:
+            self.net.train()
 
     def evaluate(self, last: dict, lr: float) -> dict:
         m = {

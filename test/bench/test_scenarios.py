@@ -163,13 +163,13 @@ def test_shipped_default_set():
 
 
 def test_the_harness_cloud_reaches_as_high_as_the_arm():
-    """A shelf board 0.75 m above the table (above the collision network's box, 0.55 m) is in the planners'
-    cloud: the harness crops like the sim camera, up to the arm's reach."""
+    """A shelf board 1.05 m above the table (above the collision network's default box, 0.95 m) is in the
+    planners' cloud: the harness crops like the sim camera, up to the arm's reach."""
     from latent_planner_ros.bench.table import problem_cloud
     from latent_planner_ros.data.camera import CameraConfig, planning_crop
     from latent_planner_ros.data.obstacles import Box
 
-    board = Box((0.5, 0.0, 0.75), (0.0, 0.0, 0.0, 1.0), (0.15, 0.2, 0.01))
+    board = Box((0.5, 0.0, 1.05), (0.0, 0.0, 0.0, 1.0), (0.15, 0.2, 0.01))
     problem = ScenarioProblem(
         start=np.zeros(7),
         goal_position=np.array([0.5, 0.0, 0.3]),
@@ -178,7 +178,7 @@ def test_the_harness_cloud_reaches_as_high_as_the_arm():
         camera=CameraSpec(eye=(1.5, 0.3, 1.6), target=(0.5, 0.0, 0.3), seed=0),
     )
     cloud, origin = problem_cloud(problem, 0, table=True)
-    on_board = np.abs(cloud[:, 2] - 0.76) < 0.01
-    assert on_board.sum() > 50 and CameraConfig().crop_max[2] < 0.75 < planning_crop()[1][2]
+    on_board = np.abs(cloud[:, 2] - 1.06) < 0.01
+    assert on_board.sum() > 50 and CameraConfig().crop_max[2] < 1.05 < planning_crop()[1][2]
     low, high = (np.asarray(c) for c in planning_crop())
     assert np.all(cloud >= low - 1e-6) and np.all(cloud <= high + 1e-6)

@@ -39,9 +39,9 @@ def test_crop_is_the_half_open_box_the_encoder_sees():
     pts = np.array(
         [
             [0.0, -0.6, -0.05],  # the lower corner: inside
-            [0.999, 0.599, 0.549],  # just inside
+            [0.999, 0.599, HIGH[2] - 0.001],  # just inside
             [1.0, 0.0, 0.2],  # on the upper x face: outside (the encoder has no voxel there)
-            [0.5, 0.0, 0.55],
+            [0.5, 0.0, HIGH[2]],
             [-0.01, 0.0, 0.2],
             [0.5, 0.7, 0.2],
             [0.5, 0.0, -0.2],  # under the table

@@ -88,7 +88,8 @@ def test_a_cloud_is_encoded_with_its_camera_origin_and_a_non_finite_origin_count
 
 def test_points_above_the_networks_box_reach_the_hard_check_but_not_the_encoder(rng):
     torch.manual_seed(0)
-    config = CollisionNetConfig(encoder=SceneEncoderConfig(visibility=True, conv_channels=(8, 6)), hidden=(16,))
+    encoder = SceneEncoderConfig(visibility=True, conv_channels=(8, 6), bounds_max=(1.0, 0.6, 0.55))
+    config = CollisionNetConfig(encoder=encoder, hidden=(16,))
     vae = RobotStateVAE(VaeConfig(hidden=16, layers=1))
     backend = LearnedBackend(CollisionPredictor(CollisionNet(config), vae), threshold=1.1)  # network never refuses
     low = rng.uniform([0.3, -0.2, 0.0], [0.5, 0.2, 0.3], size=(500, 3)).astype(np.float32)

@@ -95,3 +95,36 @@ def test_missing_data_or_vae_is_a_clear_error(tmp_path, workspace, capsys):
     ]
     assert main(args) == 2
     assert "--generate" in capsys.readouterr().err
+
+
+def test_cli_grow_writes_the_network_over_a_larger_box_with_both_scores(workspace, tmp_path, capsys):
+    from latent_planner_ros.models.collision_io import file_sha256, save_collision_net
+    from latent_planner_ros.models.collision_net import CollisionNet
+
+    torch.manual_seed(0)
+    parent = save_collision_net(
+        tmp_path / "parent",
+        CollisionNet(SMALL_NET),
+        {"vae": {"sha256": file_sha256(workspace / "vae.safetensors")}, "training": {"command": "train it"}},
+    )
+    common = ["--vae", str(workspace / "vae"), "--val-dir", str(workspace), "--val-scenes", "2", "--threads", "1"]
+    out, stem = tmp_path / "grown", str(parent.with_suffix(""))
+    assert main(["--grow", stem, "--box-max", "1.0", "0.6", "1.15", "--out", str(out), *common]) == 0
+    net, meta = load_collision_net(out / "best")
+    assert net.config.encoder.bounds_max == (1.0, 0.6, 1.15) and meta["grid"]["shape"] == [10, 12, 12]
+    assert meta["box"]["parent_bounds_max"] == list(SMALL_NET.encoder.bounds_max)
+    assert "--grow" in meta["box"]["command"] and meta["training"]["command"] == "train it"
+    assert 0.0 <= meta["metrics"]["val_unseen_auroc_near"] <= 1.0 and "val_seen_loss" in meta["box"]["parent_metrics"]
+    # a box smaller than the network's, a missing checkpoint, another VAE: clear errors, nothing written
+    smaller = ["--box-max", "1.0", "0.6", "0.45", "--out", str(tmp_path / "small")]
+    assert main(["--grow", stem, *smaller, *common]) == 2
+    assert "contain" in capsys.readouterr().err and not (tmp_path / "small").exists()
+    assert main(["--grow", str(tmp_path / "none"), "--box-max", "1.0", "0.6", "1.15", "--out", str(out), *common]) == 2
+    assert "none" in capsys.readouterr().err
+    other = RobotStateVAE(VaeConfig(hidden=8, layers=1))
+    save_vae(tmp_path / "other_vae", other, {})
+    args = ["--grow", stem, "--box-max", "1.0", "0.6", "1.15", "--out", str(out), "--vae", str(tmp_path / "other_vae")]
+    assert main([*args, "--val-dir", str(workspace), "--threads", "1"]) == 2
+    assert "another VAE" in capsys.readouterr().err
+    assert main(["--grow", stem, "--out", str(out), *common]) == 2  # no new box
+    assert "--box-max" in capsys.readouterr().err
