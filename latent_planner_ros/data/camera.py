@@ -72,9 +72,9 @@ class CameraConfig:
     max_depth: float = 4.0
     """rays that hit nothing within this depth [m] give no point"""
     crop_min: tuple[float, float, float] = (0.0, -0.6, -0.05)
-    """lower corner [m] of the workspace box the cloud is cropped to (`world`): by default the collision
-    network's default box (training crops to its network's box; clouds for planners use `planning_crop`)"""
-    crop_max: tuple[float, float, float] = (1.0, 0.6, 0.95)
+    """lower corner [m] of the workspace box the cloud is cropped to (`world`): by default a new collision
+    network's box (training crops to its network's box; clouds for planners use `planning_crop`)"""
+    crop_max: tuple[float, float, float] = (1.0, 0.6, 0.55)
     """upper corner [m] of the crop box"""
 
 

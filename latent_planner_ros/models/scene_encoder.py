@@ -23,8 +23,9 @@ class SceneEncoderConfig:
 
     bounds_min: tuple[float, float, float] = (0.0, -0.6, -0.05)
     """lower corner [m] of the encoded workspace box in `world`"""
-    bounds_max: tuple[float, float, float] = (1.0, 0.6, 0.95)
-    """upper corner [m]; (max - min) must be a whole number of voxels along each axis"""
+    bounds_max: tuple[float, float, float] = (1.0, 0.6, 0.55)
+    """upper corner [m]; (max - min) must be a whole number of voxels along each axis. New networks train in
+    this box; the shipped one was then given a box reaching 0.95 m (`train collision --grow`, docs/training.md)"""
     voxel_size: float = 0.1
     """edge length [m] of the cubic voxels"""
     point_hidden: int = 32

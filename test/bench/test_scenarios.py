@@ -163,7 +163,7 @@ def test_shipped_default_set():
 
 
 def test_the_harness_cloud_reaches_as_high_as_the_arm():
-    """A shelf board 1.05 m above the table (above the collision network's default box, 0.95 m) is in the
+    """A shelf board 1.05 m above the table (above the shipped collision network's box, 0.95 m) is in the
     planners' cloud: the harness crops like the sim camera, up to the arm's reach."""
     from latent_planner_ros.bench.table import problem_cloud
     from latent_planner_ros.data.camera import CameraConfig, planning_crop

@@ -34,7 +34,7 @@ def _predictor(dtype=torch.float32):
 
 
 def test_grid_shape_and_bad_bounds():
-    assert SceneEncoderConfig().grid_shape == (10, 12, 10)
+    assert SceneEncoderConfig().grid_shape == (10, 12, 6)
     with pytest.raises(ValueError, match="whole number"):
         SceneEncoderConfig(voxel_size=0.3)
 
