@@ -69,6 +69,7 @@ def grow(args: argparse.Namespace, config: TrainCollisionConfig, argv: list[str]
         "box": {
             "command": "python -m latent_planner_ros train collision " + shlex.join(argv),
             "parent": str(args.grow),
+            "parent_sha256": file_sha256(Path(args.grow).with_suffix(".safetensors")),
             "parent_bounds_min": list(enc.bounds_min),
             "parent_bounds_max": list(enc.bounds_max),
             "parent_metrics": before,

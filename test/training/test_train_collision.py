@@ -113,6 +113,7 @@ def test_cli_grow_writes_the_network_over_a_larger_box_with_both_scores(workspac
     net, meta = load_collision_net(out / "best")
     assert net.config.encoder.bounds_max == (1.0, 0.6, 1.15) and meta["grid"]["shape"] == [10, 12, 12]
     assert meta["box"]["parent_bounds_max"] == list(SMALL_NET.encoder.bounds_max)
+    assert meta["box"]["parent_sha256"] == file_sha256(parent)
     assert "--grow" in meta["box"]["command"] and meta["training"]["command"] == "train it"
     assert 0.0 <= meta["metrics"]["val_unseen_auroc_near"] <= 1.0 and "val_seen_loss" in meta["box"]["parent_metrics"]
     # a box smaller than the network's, a missing checkpoint, another VAE: clear errors, nothing written
