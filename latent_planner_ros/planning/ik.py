@@ -116,32 +116,44 @@ def solve_ik(panda: PandaModel, goal: Goal, q0: np.ndarray, config: IkConfig, fr
     data = model.createData()
     fid = panda.frame_id(frame)
     target = pin.SE3(np.asarray(goal.rotation, dtype=float), np.asarray(goal.position, dtype=float))
+    target_p = target.translation
     pos_tol = min(config.pos_tol, 0.5 * goal.pos_tol)
     ori_tol = min(math.radians(config.ori_tol_deg), 0.5 * goal.ori_tol)
-    q = np.clip(np.asarray(q0, dtype=float), Q_MIN, Q_MAX)
-    pos_err = ori_err = math.inf
+    damping = config.damping * np.eye(3 if position_only else 6)
+    q = np.minimum(np.maximum(np.asarray(q0, dtype=float), Q_MIN), Q_MAX)
+    pos_err = math.inf
     for it in range(config.max_iters + 1):
         pin.framesForwardKinematics(model, data, q)
         current = data.oMf[fid]
-        pos_err = float(np.linalg.norm(target.translation - current.translation))
-        ori_err = float(np.linalg.norm(pin.log3(current.rotation.T @ target.rotation)))
-        if pos_err < pos_tol and (position_only or ori_err < ori_tol):
-            return IkSolution(q, pos_err, ori_err, it, True)
+        d = target_p - current.translation
+        pos_err = math.sqrt(float(d @ d))
+        if position_only:
+            if pos_err < pos_tol:
+                return IkSolution(q, pos_err, _angle(current, target), it, True)
+        else:
+            err_se3 = current.actInv(target)  # target seen from the current frame
+            err = pin.log6(err_se3).vector  # (linear, angular); |angular| is the rotation angle to the target
+            w = err[3:]
+            if pos_err < pos_tol and math.sqrt(float(w @ w)) < ori_tol:
+                return IkSolution(q, pos_err, _angle(current, target), it, True)
         if it == config.max_iters:
             break
         if position_only:
-            err = target.translation - current.translation
+            err = d
             jac = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)[:3]
         else:
-            err_se3 = current.actInv(target)  # target seen from the current frame
-            err = pin.log6(err_se3).vector
             jac = pin.Jlog6(err_se3.inverse()) @ pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)
-        dq = jac.T @ np.linalg.solve(jac @ jac.T + config.damping * np.eye(len(err)), err)
+        dq = jac.T @ np.linalg.solve(jac @ jac.T + damping, err)
         biggest = float(np.abs(dq).max())
         if biggest > config.max_step_rad:
             dq *= config.max_step_rad / biggest
-        q = np.clip(q + dq, Q_MIN, Q_MAX)
-    return IkSolution(q, pos_err, ori_err, config.max_iters, False)
+        q = np.minimum(np.maximum(q + dq, Q_MIN), Q_MAX)
+    return IkSolution(q, pos_err, _angle(data.oMf[fid], target), config.max_iters, False)
+
+
+def _angle(current: pin.SE3, target: pin.SE3) -> float:
+    """Rotation angle [rad] between two poses' orientations."""
+    return float(np.linalg.norm(pin.log3(current.rotation.T @ target.rotation)))
 
 
 def goal_configurations(

@@ -37,12 +37,20 @@ class TorchFK(torch.nn.Module):
             frame = model.frames[panda.frame_id(name)]
             frame_joint.append(int(frame.parentJoint))
             frame_place.append(frame.placement.homogeneous)
-        self.register_buffer(
-            "joint_placements", torch.as_tensor(placements, dtype=dtype), persistent=False
-        )  # (7, 4, 4)
-        self.register_buffer(
-            "frame_placements", torch.as_tensor(np.stack(frame_place), dtype=dtype), persistent=False
-        )  # (F, 4, 4)
+        # M_j @ Rz(q) = cos(q) A_j + sin(q) B_j + C_j: Rz mixes only the first two columns of the placement M_j
+        m = torch.as_tensor(placements, dtype=dtype)  # (7, 4, 4)
+        zero = torch.zeros_like(m[..., 0])
+        self.register_buffer("rz_cos", torch.stack([m[..., 0], m[..., 1], zero, zero], -1), persistent=False)
+        self.register_buffer("rz_sin", torch.stack([m[..., 1], -m[..., 0], zero, zero], -1), persistent=False)
+        self.register_buffer("rz_const", torch.stack([zero, zero, m[..., 2], m[..., 3]], -1), persistent=False)
+        # frames placed off their joint, per joint: (joint, frame indices, buffer of their placements (4, 4k))
+        self.placed_groups: list[tuple[int, list[int], str]] = []
+        placed = [i for i, p in enumerate(frame_place) if not np.allclose(p, np.eye(4), rtol=0, atol=1e-12)]
+        for j in sorted({frame_joint[i] for i in placed}):
+            idx = [i for i in placed if frame_joint[i] == j]
+            cat = np.concatenate([frame_place[i] for i in idx], 1)
+            self.register_buffer(f"placed_{j}", torch.as_tensor(cat, dtype=dtype), persistent=False)
+            self.placed_groups.append((j, idx, f"placed_{j}"))
         self.frame_joint = frame_joint  # joint index 0..7 (0 = world) each frame hangs from
         self.ee_index = self.frames.index(EE_FRAME) if EE_FRAME in self.frames else None
 
@@ -56,31 +64,24 @@ class TorchFK(torch.nn.Module):
             (first derivatives, computed in closed form: see _Kinematics).
         """
         batch = q.shape[:-1]
-        q = q.reshape(-1, 7).to(self.joint_placements.dtype)
+        q = q.reshape(-1, 7).to(self.rz_cos.dtype)
         out = _Kinematics.apply(q, self) if q.requires_grad else self._frames(q)[0]
         return out.reshape(*batch, len(self.frames), 4, 4)
 
     def _frames(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Frame poses (n, F, 4, 4) and joint poses (n, 8, 4, 4) (index 0 = world) for q (n, 7) [rad]."""
         n = q.shape[0]
-        c, s = torch.cos(q), torch.sin(q)
-        zeros, ones = torch.zeros_like(c), torch.ones_like(c)
-        # Rz(q) for every joint, shape (n, 7, 4, 4)
-        rz = torch.stack(
-            [
-                torch.stack([c, -s, zeros, zeros], -1),
-                torch.stack([s, c, zeros, zeros], -1),
-                torch.stack([zeros, zeros, ones, zeros], -1),
-                torch.stack([zeros, zeros, zeros, ones], -1),
-            ],
-            -2,
-        )
-        local = self.joint_placements.unsqueeze(0) @ rz  # (n, 7, 4, 4)
+        c, s = torch.cos(q)[..., None, None], torch.sin(q)[..., None, None]
+        local = c * self.rz_cos + s * self.rz_sin + self.rz_const  # (n, 7, 4, 4)
         world = [torch.eye(4, dtype=q.dtype, device=q.device).expand(n, 4, 4)]
         for j in range(7):
-            world.append(world[-1] @ local[:, j])
+            world.append(local[:, 0] if j == 0 else torch.bmm(world[-1], local[:, j]))
         joints = torch.stack(world, 1)  # (n, 8, 4, 4); index 0 = world
-        return joints[:, self.frame_joint] @ self.frame_placements.unsqueeze(0), joints
+        frames = joints[:, self.frame_joint]  # frames whose placement is the identity are their joint's pose
+        for j, idx, buffer in self.placed_groups:  # the others: one (n*4, 4) @ (4, 4k) product per joint
+            placed = (joints[:, j] @ getattr(self, buffer)).reshape(n, 4, len(idx), 4)
+            frames[:, idx] = placed.transpose(1, 2)
+        return frames, joints
 
     def ee_pose(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """End-effector (panda_hand_tcp) position (..., 3) [m] and rotation matrix (..., 3, 3)."""

@@ -95,3 +95,20 @@ def test_goal_inside_a_cylinder_fails_with_a_reason(across):
     planner = ExactOmplPlanner(scene=cylinder_scene(BLOCKER))
     result = planner.plan(start, Goal(np.array([0.5, 0.0, 0.2]), UP, ori_tol=math.pi))
     assert not result.success and "inside an obstacle" in result.reason, result.reason
+
+
+@pytest.mark.parametrize("iters", [2, 150])
+@pytest.mark.parametrize("ori_tol", [math.radians(15), math.pi])
+def test_ik_reports_the_errors_of_the_configuration_it_returns(iters, ori_tol, rng):
+    panda = load_panda()
+    for q_goal in FeasibleSampler(rng).sample(4):
+        tf = panda.fk(q_goal)
+        goal = Goal(tf.translation.copy(), tf.rotation.copy(), 0.01, ori_tol)
+        sol = solve_ik(panda, goal, Q_READY, IkConfig(max_iters=iters))
+        got = panda.fk(sol.q)
+        assert sol.pos_err == pytest.approx(np.linalg.norm(got.translation - goal.position), abs=1e-12)
+        assert sol.ori_err == pytest.approx(np.linalg.norm(pin.log3(got.rotation.T @ goal.rotation)), abs=1e-9)
+        if sol.converged:
+            assert sol.pos_err < 1e-3 and (ori_tol >= math.pi or sol.ori_err < math.radians(0.5))
+        else:
+            assert sol.iterations == iters
