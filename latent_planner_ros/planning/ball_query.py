@@ -42,6 +42,7 @@ class BallQuery:
         prefix = np.zeros(shape + 1, dtype=np.int32)  # prefix[i, j, k] = occupied voxels in [:i, :j, :k]
         prefix[1:, 1:, 1:] = occ.cumsum(0).cumsum(1).cumsum(2)
         self._prefix = prefix
+        self._strides = np.asarray(prefix.strides, dtype=np.intp) // prefix.itemsize
         self._top = np.asarray(prefix.shape) - 1
 
     def _kdtree(self) -> cKDTree:
@@ -59,13 +60,16 @@ class BallQuery:
             return hit
         centres = np.where(hit[:, None], 0.0, centres)
         r = radii[:, None]
-        a = np.clip(np.floor((centres - r - self._lo) / self.cell).astype(np.intp), 0, self._top)
-        b = np.clip(np.floor((centres + r - self._lo) / self.cell).astype(np.intp) + 1, 0, self._top)
-        p = self._prefix
+        top = self._top
+        a = np.minimum(np.maximum(np.floor((centres - r - self._lo) / self.cell).astype(np.intp), 0), top)
+        b = np.minimum(np.maximum(np.floor((centres + r - self._lo) / self.cell).astype(np.intp) + 1, 0), top)
+        a *= self._strides  # flat offsets of the box corners along each axis
+        b *= self._strides
+        p = self._prefix.ravel()
         (x0, y0, z0), (x1, y1, z1) = a.T, b.T
         count = (
-            p[x1, y1, z1] - p[x0, y1, z1] - p[x1, y0, z1] - p[x1, y1, z0]
-            + p[x0, y0, z1] + p[x0, y1, z0] + p[x1, y0, z0] - p[x0, y0, z0]
+            p[x1 + y1 + z1] - p[x0 + y1 + z1] - p[x1 + y0 + z1] - p[x1 + y1 + z0]
+            + p[x0 + y0 + z1] + p[x0 + y1 + z0] + p[x1 + y0 + z0] - p[x0 + y0 + z0]
         )  # fmt: skip
         cand = np.flatnonzero(count > 0)
         if len(cand):

@@ -40,9 +40,10 @@ class SphereModel:
 
     def centres_world(self, frames: torch.Tensor) -> torch.Tensor:
         """Sphere centres in `world` (..., S, 3) from link frame poses (..., len(LINK_FRAMES), 4, 4)."""
-        t = frames[..., torch.as_tensor(self.link), :, :]
+        t = frames[..., torch.as_tensor(self.link), :3, :]  # (..., S, 3, 4)
         c = torch.as_tensor(self.centre, dtype=frames.dtype)
-        return (t[..., :3, :3] @ c.unsqueeze(-1)).squeeze(-1) + t[..., :3, 3]
+        c = torch.cat([c, torch.ones_like(c[:, :1])], 1)  # homogeneous (S, 4)
+        return (t * c[:, None, :]).sum(-1)  # R c + p: elementwise, faster than S small matrix products
 
     def self_penetration(self, centres: torch.Tensor) -> torch.Tensor:
         """Sum over checked sphere pairs of their overlap depth [m], shape (...,) for centres (..., S, 3)."""
