@@ -47,7 +47,8 @@ class BallQuery:
 
     def _kdtree(self) -> cKDTree:
         if self._tree is None:  # built on first need: most plans never ask the exact question
-            self._tree = cKDTree(self.cloud)
+            # unbalanced, non-compact: about half the build time of scipy's default, the same exact answers
+            self._tree = cKDTree(self.cloud, balanced_tree=False, compact_nodes=False)
         return self._tree
 
     def occupied(self, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:

@@ -61,7 +61,8 @@ class OccupancyMap:
         if not len(pts):
             return cls(None, None, float(resolution), n_in, 0)
         tree = coal.makeOctree(np.ascontiguousarray(pts), float(resolution))
-        return cls(tree, cKDTree(pts), float(resolution), n_in, len(pts))
+        kd = cKDTree(pts, balanced_tree=False, compact_nodes=False)  # half the build time, the same answers
+        return cls(tree, kd, float(resolution), n_in, len(pts))
 
     @property
     def occupied_voxels(self) -> int:
