@@ -167,6 +167,8 @@ class TableRunner:
                     "start_goal_distance_m": distance,
                     "states_checked": verdict.states_checked,
                     "cloud_points": len(cloud),
+                    "timings": {k: float(v) for k, v in result.timings.items()},
+                    "checked_states": int(result.info.get("checked_states", -1)),
                 }
             )
         return rows

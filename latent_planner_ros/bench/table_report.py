@@ -51,11 +51,38 @@ def summarise(rows: list[dict], names: list[str]) -> dict:
             "claimed_but_missed": sum(r["claimed"] and not r["reached"] for r in mine),
             "failures": dict(Counter(_short(r["reason"]) for r in mine if not r["claimed"]).most_common(5)),
             "speedup_vs_rrtconnect": None,
+            "time_split_ms": time_split(mine),
         }
     ref = out.get("rrtconnect", {}).get("time_median_s")
     for s in out.values():
         if ref and s["time_median_s"]:
             s["speedup_vs_rrtconnect"] = ref / s["time_median_s"]
+    return out
+
+
+SPLIT_EXCLUDED = ("total_s", "setup_s")
+"""timings not in the split: the total, and AMP-LS's set-up (which overlaps its scene and check sections)"""
+
+
+def time_split(rows: list[dict]) -> dict | None:
+    """Where the time of typical plans goes: over one planner's rows whose time lies between its 30th and 70th
+    percentile, the mean [ms] of each of its timings (AMP-LS: scene, check, ik, steps, other; OMPL: octree, ik,
+    solve, simplify), of the total, and (AMP-LS) of the hard-checked states. None without timings."""
+    if not rows or not any(r.get("timings") for r in rows):
+        return None
+    times = np.array([r["time_s"] for r in rows])
+    lo, hi = np.percentile(times, [30, 70])
+    typical = [r for r in rows if lo <= r["time_s"] <= hi]
+    keys = sorted({k for r in typical for k in r.get("timings", {}) if k not in SPLIT_EXCLUDED})
+    out = {k.removesuffix("_s"): 1e3 * float(np.mean([r["timings"].get(k, 0.0) for r in typical])) for k in keys}
+    if "other_s" not in keys:  # the time outside the planner's named sections
+        rest = [r["time_s"] - sum(r["timings"].get(k, 0.0) for k in keys) for r in typical]
+        out["other"] = 1e3 * max(0.0, float(np.mean(rest)))
+    out["total"] = 1e3 * float(np.mean([r["time_s"] for r in typical]))
+    states = [r["checked_states"] for r in typical if r.get("checked_states", -1) >= 0]
+    if states:
+        out["checked_states"] = float(np.mean(states))
+    out["plans"] = len(typical)
     return out
 
 
@@ -99,6 +126,7 @@ def markdown(results: dict) -> str:
             f"| {_fmt(r['ee_path_median_m'])} | {_fmt(speed, '.1f')}{'x' if speed else ''} | {r['unsafe']} "
             f"| {seed_txt} |"
         )
+    lines += _split_lines(results["planners"])
     lines += ["", "Rows:", ""]
     for name in results["planners"]:
         if name in AMP_LS_VARIANTS:
@@ -116,6 +144,27 @@ def markdown(results: dict) -> str:
     if results.get("notes"):
         lines += ["", "Notes:", *[f"- {n}" for n in results["notes"]]]
     return "\n".join(lines)
+
+
+def _split_lines(planners: dict) -> list[str]:
+    """Markdown lines: where the time of typical plans goes, per planner with timings."""
+    lines = []
+    for name, r in planners.items():
+        split = r.get("time_split_ms")
+        if not split:
+            continue
+        parts = [f"{k} {v:.0f}" for k, v in split.items() if k not in ("total", "checked_states", "plans")]
+        states = f"; {split['checked_states']:.0f} states hard-checked" if "checked_states" in split else ""
+        lines.append(f"- `{name}`: {split['total']:.0f} ms = {' + '.join(parts)}{states}")
+    if not lines:
+        return []
+    head = (
+        "Where the time goes: mean [ms] over each planner's plans between the 30th and 70th percentile of its "
+        "planning time (AMP-LS: scene = encoding the cloud and indexing it for the geometric check, check = hard "
+        "checks, ik = IK of the exact finish and goal guidance, steps = optimisation steps, other = the rest; "
+        "OMPL: octree, ik = goal states, solve, simplify; each section without the sections inside it):"
+    )
+    return ["", head, "", *lines]
 
 
 def figures(results: dict, rows: list[dict]) -> dict:

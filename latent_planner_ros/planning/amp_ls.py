@@ -40,6 +40,7 @@ from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.amp_ls_search import LatentSearch, StepResult
 from latent_planner_ros.planning.collision_backend import CollisionBackend
 from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.plan_clock import PlanClock
 from latent_planner_ros.planning.result import PlanResult
 from latent_planner_ros.planning.time_parameterisation import interpolate, time_parameterise
 from latent_planner_ros.robot.collision import CollisionChecker
@@ -74,6 +75,7 @@ class AmpLs(PlanAdditions):
         self.panda = load_panda()
         self._escape_from: np.ndarray | None = None  # plan: the start, while states near it are not refused
         self._search: LatentSearch | None = None
+        self.clock = PlanClock()  # where `plan`'s time goes (PlanResult.timings)
 
     # -- shared pieces -----------------------------------------------------------------------------
     def _pose(self, z: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -248,11 +250,13 @@ class AmpLs(PlanAdditions):
         """
         cfg = self.config
         t0 = time.perf_counter()
+        self.clock.reset()
         start_q = np.asarray(start_q, dtype=float)
         if start_q.shape != (7,) or not np.all(np.isfinite(start_q)):
             raise ValueError(f"start_q must be 7 finite joint positions, got {start_q!r}")
         if cfg.use_collision:
-            self.backend.set_scene(np.zeros((0, 3)) if cloud is None else cloud, origin)
+            with self.clock.section("scene"):
+                self.backend.set_scene(np.zeros((0, 3)) if cloud is None else cloud, origin)
         # a start refused by the (conservative) hard check: let the arm move out of it (escape_rad)
         self._escape_from = None
         start_refused = bool(self._check_segments([start_q[None]])[0][0])
@@ -264,7 +268,8 @@ class AmpLs(PlanAdditions):
         straight = winner is not None
         reason = "step budget exhausted" if winner is None else "reached"
         for t in range(cfg.max_steps if winner is None else 0):
-            ev = self._iterate(s, goal, accept=t > 0, lazy=cfg.lazy_check)
+            with self.clock.section("steps"):
+                ev = self._iterate(s, goal, accept=t > 0, lazy=cfg.lazy_check)
             if ev["reached"]:
                 winner, reason = ev["reached"][0], "reached"
                 break
@@ -321,7 +326,12 @@ class AmpLs(PlanAdditions):
         """Hard checks of interpolated segments [(m, 7)] in one batch: a (m,) bool hit mask per segment."""
         if not segs:
             return []
+        with self.clock.section("check"):
+            return self._check_states(segs)
+
+    def _check_states(self, segs: list[np.ndarray]) -> list[np.ndarray]:
         states = np.concatenate(segs)
+        self.clock.counts["checked_states"] += len(states)
         hits = self.backend.check(states) if self.config.use_collision else np.zeros(len(states), dtype=bool)
         ends = np.cumsum([len(seg) for seg in segs])[:-1]
         if self.config.self_check:  # only the states before each segment's first hit matter
@@ -344,6 +354,8 @@ class AmpLs(PlanAdditions):
             pos, rot = self.fk64.ee_pose(torch.as_tensor(q_path))
         pos_err, ori_err = self._fk_err(q_path[-1], goal)
         success = reason == "reached" and self._reached(pos_err, ori_err, goal)
+        timings = self.clock.totals()
+        timings["other_s"] = max(0.0, elapsed - sum(timings.values()))  # set-up, bookkeeping, shortcutting
         return PlanResult(
             success=success,
             q_path=q_path,
@@ -355,8 +367,14 @@ class AmpLs(PlanAdditions):
             final_pos_err_m=pos_err,
             final_ori_err_rad=ori_err,
             iterations=s.iteration,
-            timings={"setup_s": t_setup, "total_s": elapsed},
-            info={"backtraces": s.backtraces, "restarts": s.restarts, "seed": b, **s.last_losses},
+            timings={**timings, "setup_s": t_setup, "total_s": elapsed},
+            info={
+                "backtraces": s.backtraces,
+                "restarts": s.restarts,
+                "seed": b,
+                "checked_states": int(self.clock.counts["checked_states"]),
+                **s.last_losses,
+            },
         )
 
     def warm_up(self) -> None:

@@ -49,7 +49,8 @@ class PlanAdditions:
         b = min(near, key=lambda i: float(ev["pos_err"][i]))
         s.finish_tried[b] = s.iteration
         ik = IkConfig(max_iters=cfg.finish_ik_iters, max_step_rad=cfg.finish_ik_step_rad)
-        sol = solve_ik(self.panda, goal, s.q_prev[b], ik)
+        with self.clock.section("ik"):
+            sol = solve_ik(self.panda, goal, s.q_prev[b], ik)
         if not sol.converged or np.abs(sol.q - s.q_prev[b]).max() > cfg.finish_max_rad:
             return None
         return b if self._finish_to(s, b, sol.q) else None
@@ -61,9 +62,9 @@ class PlanAdditions:
         if cfg.finish_radius_m <= 0 or not cfg.shortcut:
             return None
         start = s.paths[0][0][0]
-        sol = solve_ik(
-            self.panda, goal, start, IkConfig(max_iters=cfg.finish_ik_iters, max_step_rad=cfg.finish_ik_step_rad)
-        )
+        with self.clock.section("ik"):
+            ik = IkConfig(max_iters=cfg.finish_ik_iters, max_step_rad=cfg.finish_ik_step_rad)
+            sol = solve_ik(self.panda, goal, start, ik)
         if not sol.converged or np.abs(sol.q - start).max() > cfg.finish_max_rad:
             return None
         return 0 if self._direct(s, 0, sol.q) else None
@@ -109,14 +110,15 @@ class PlanAdditions:
         check, searched once per plan (from the best seed's state, the ready pose, then random seeds)."""
         if s.goal_qs is None:
             rng = np.random.default_rng(int(torch.randint(0, 2**31 - 1, (1,), generator=self.generator)))
-            search = goal_configurations(
-                self.panda,
-                goal,
-                s.q_prev[int(np.argmin(s.best_err))],
-                lambda q: "hard check" if self._check_segments([q[None]])[0][0] else None,
-                IkConfig(n_seeds=32, max_solutions=self.config.goal_guidance, timeout_s=0.5),
-                rng,
-            )
+            with self.clock.section("ik"):  # the hard checks of its solutions count as checks
+                search = goal_configurations(
+                    self.panda,
+                    goal,
+                    s.q_prev[int(np.argmin(s.best_err))],
+                    lambda q: "hard check" if self._check_segments([q[None]])[0][0] else None,
+                    IkConfig(n_seeds=32, max_solutions=self.config.goal_guidance, timeout_s=0.5),
+                    rng,
+                )
             s.goal_qs = search.solutions
         return s.goal_qs
 

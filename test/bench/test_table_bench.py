@@ -42,6 +42,14 @@ def test_bench_table_writes_every_field(tmp_path):
     assert "| `amp_ls` |" in md and "| `rrtconnect` |" in md
     for fig in ("success_time", "success", "times", "path_length"):
         assert (tmp_path / "out" / f"table_{fig}.png").exists(), fig
+    # where the time goes: the parts of each planner's split add up to its total
+    for name, stats in data["planners"].items():
+        split = stats["time_split_ms"]
+        parts = sum(v for k, v in split.items() if k not in ("total", "checked_states", "plans"))
+        assert parts == pytest.approx(split["total"], rel=0.02), (name, split)
+        assert split["plans"] >= 1
+    assert data["planners"]["amp_ls"]["time_split_ms"]["checked_states"] > 0
+    assert "Where the time goes" in md and "- `amp_ls`:" in md
 
 
 def test_bench_table_refuses_a_bad_set_and_unknown_planners(tmp_path, capsys):

@@ -176,3 +176,28 @@ def test_several_accepted_steps_command_the_last_only_when_the_straight_segment_
     np.testing.assert_array_equal(planner._direct_target(Q_READY, last, first), first)  # the diagonal hits
     beside = Q_READY + np.array([0.3, -0.3, 0, 0, 0, 0, 0])
     np.testing.assert_array_equal(planner._direct_target(Q_READY, beside, first), beside)
+
+
+class CountingBackend(GeometricBackend):
+    """The exact check, counting the states it is asked about."""
+
+    checked = 0
+
+    def check(self, q):
+        self.checked += len(q)
+        return super().check(q)
+
+
+def test_plan_timings_add_up_to_the_total_and_count_the_hard_checked_states(shipped_vae):
+    """PlanResult.timings splits the plan's wall time into exclusive sections (scene, check, steps, other, maybe
+    ik) that add up to total_s; info["checked_states"] is the number of states the hard check was asked about."""
+    goal = _goal_of(Q_READY + np.array([1.2, 0.3, 0.0, 0.3, 0.0, -0.2, 0.0]))
+    wall = np.random.default_rng(0).uniform([0.3, -0.3, 0.2], [0.6, 0.3, 0.6], (500, 3))
+    backend = CountingBackend()
+    result = AmpLs(shipped_vae, backend, AmpLsConfig(collision_backend="geometric")).plan(Q_READY, goal, wall)
+    t = result.timings
+    assert {"scene_s", "check_s", "other_s", "setup_s", "total_s"} <= set(t)
+    assert all(v >= 0 for v in t.values())
+    parts = sum(v for k, v in t.items() if k not in ("setup_s", "total_s"))
+    assert parts == pytest.approx(t["total_s"], rel=1e-6)
+    assert result.info["checked_states"] == backend.checked > 0
