@@ -12,6 +12,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 import torch
+import torch.nn.functional as F
 from torch import nn
 
 from latent_planner_ros.models import visibility as vis
@@ -189,8 +190,12 @@ class SceneEncoder(nn.Module):
         )
         count = torch.bincount(flat, minlength=n_batch * n_vox).to(feats.dtype)
         grid = torch.cat([pooled, torch.log1p(count)[:, None]] + ([seen.reshape(-1, 3)] if cfg.visibility else []), 1)
-        grid = grid.reshape(n_batch, nx, ny, nz, -1).permute(0, 4, 1, 2, 3)
-        return self.convs(grid.contiguous())
+        grid = grid.reshape(n_batch, nx, ny, nz, -1).permute(0, 4, 1, 2, 3).contiguous()
+        if torch.is_grad_enabled():
+            return self.convs(grid)
+        for layer in self.convs:  # without autograd: the same convolutions, about twice as fast
+            grid = conv3d_by_slices(grid, layer) if isinstance(layer, nn.Conv3d) else layer(grid)
+        return grid.contiguous()
 
     def _point_features(self, offset: torch.Tensor) -> torch.Tensor:
         """point_mlp of offsets (N, 3) -> (N, point_features). Without autograd, the first layer (3 inputs) is
@@ -209,3 +214,20 @@ class SceneEncoder(nn.Module):
         p = torch.as_tensor(np.asarray(points, dtype=np.float32) if not torch.is_tensor(points) else points)
         e = None if eye is None else torch.as_tensor(np.asarray(eye, dtype=np.float32).reshape(1, 3))
         return SceneEmbedding(self.forward(p.reshape(-1, 3).to(self.bounds_min.device), eyes=e)[0], self.config)
+
+
+def conv3d_by_slices(x: torch.Tensor, conv: nn.Conv3d) -> torch.Tensor:
+    """conv(x) for a 3x3x3 Conv3d (stride 1, padding 1, no dilation or groups) on x (B, C, D, H, W), computed as
+    one 2D convolution over the B*D slices, each slice stacked with its two neighbours (3C channels): the same
+    sums in another order. torch's CPU conv3d (slow_conv3d) is about half as fast as its oneDNN conv2d at the
+    encoder's sizes. Returns (B, O, D, H, W), not contiguous."""
+    same_size = conv.kernel_size == (3, 3, 3) and conv.padding == (1, 1, 1) and conv.padding_mode == "zeros"
+    if not same_size or conv.stride != (1, 1, 1) or conv.dilation != (1, 1, 1) or conv.groups != 1:
+        return conv(x)
+    b, c, d, h, w = x.shape
+    padded = F.pad(x, (0, 0, 0, 0, 1, 1))
+    slabs = torch.cat([padded[:, :, k : k + d] for k in range(3)], 1)  # (B, 3C, D, H, W): channel k * C + c
+    slices = slabs.permute(0, 2, 1, 3, 4).reshape(b * d, 3 * c, h, w)
+    weight = conv.weight.permute(0, 2, 1, 3, 4).reshape(conv.out_channels, 3 * c, 3, 3)
+    out = F.conv2d(slices, weight, conv.bias, padding=1)  # (B * D, O, H, W)
+    return out.reshape(b, d, -1, h, w).permute(0, 2, 1, 3, 4)

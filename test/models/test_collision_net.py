@@ -10,7 +10,7 @@ from latent_planner_ros.models.collision_io import load_collision_net, load_scen
 from latent_planner_ros.models.collision_net import CollisionNet
 from latent_planner_ros.models.collision_net_config import CollisionNetConfig
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
-from latent_planner_ros.models.scene_encoder import SceneEmbedding, SceneEncoderConfig
+from latent_planner_ros.models.scene_encoder import SceneEmbedding, SceneEncoderConfig, conv3d_by_slices
 from latent_planner_ros.models.vae import RobotStateVAE
 from latent_planner_ros.models.vae_config import VaeConfig
 from latent_planner_ros.robot.limits import Q_READY
@@ -113,3 +113,13 @@ def test_inference_encoding_equals_the_autograd_path(rng):
     with torch.no_grad():
         fast = net.encoder(cloud)
     torch.testing.assert_close(fast, net.encoder(cloud).detach(), rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("bias", [True, False])
+def test_conv3d_by_slices_equals_conv3d(rng, bias):
+    conv = torch.nn.Conv3d(5, 4, 3, padding=1, bias=bias)
+    x = torch.as_tensor(rng.normal(size=(2, 5, 4, 6, 3)), dtype=torch.float32)
+    with torch.no_grad():
+        torch.testing.assert_close(conv3d_by_slices(x, conv), conv(x), rtol=1e-5, atol=1e-5)
+    other = torch.nn.Conv3d(5, 4, 1)  # not a 3x3x3 same-size convolution: left to conv3d
+    torch.testing.assert_close(conv3d_by_slices(x, other), other(x))
