@@ -1,7 +1,8 @@
 """Batched, differentiable forward kinematics of the Panda arm in torch.
 
 Built from the pinocchio model (joint placements and frame placements), so it cannot drift from the
-reference; tested against pinocchio to 1e-5 m / 1e-5 rad.
+reference; tested against pinocchio to 1e-5 m / 1e-5 rad. Small CPU batches (planning) run the same chain in
+float64 numpy, large ones (training) in torch; both have the closed-form first derivative (no double backward).
 """
 
 from __future__ import annotations
@@ -10,6 +11,14 @@ import numpy as np
 import torch
 
 from latent_planner_ros.robot.panda import EE_FRAME, LINK_FRAMES, load_panda
+
+NUMPY_MAX_BATCH = 1024
+"""CPU batches up to this size run in float64 numpy (planning: a few times faster than torch, whose every op
+costs microseconds of dispatch); larger ones (training) in torch"""
+
+
+def _use_numpy(q: torch.Tensor) -> bool:
+    return q.device.type == "cpu" and q.shape[0] <= NUMPY_MAX_BATCH
 
 
 class TorchFK(torch.nn.Module):
@@ -52,6 +61,17 @@ class TorchFK(torch.nn.Module):
             self.register_buffer(f"placed_{j}", torch.as_tensor(cat, dtype=dtype), persistent=False)
             self.placed_groups.append((j, idx, f"placed_{j}"))
         self.frame_joint = frame_joint  # joint index 0..7 (0 = world) each frame hangs from
+        # the same chain in float64 numpy for small CPU batches (NUMPY_MAX_BATCH)
+        self._np = {
+            "cos": self.rz_cos.double().numpy(),
+            "sin": self.rz_sin.double().numpy(),
+            "const": self.rz_const.double().numpy(),
+            "groups": [(j, idx, getattr(self, buffer).double().numpy()) for j, idx, buffer in self.placed_groups],
+            # after[j, f]: frame f moves with joint j
+            "after": (np.array(frame_joint)[None, :] > np.arange(7)[:, None]).astype(np.float64),
+            "frame_joint": np.array(frame_joint),
+            "eye": np.eye(4),
+        }
         self.ee_index = self.frames.index(EE_FRAME) if EE_FRAME in self.frames else None
 
     def forward(self, q: torch.Tensor) -> torch.Tensor:
@@ -64,12 +84,18 @@ class TorchFK(torch.nn.Module):
             (first derivatives, computed in closed form: see _Kinematics).
         """
         batch = q.shape[:-1]
-        q = q.reshape(-1, 7).to(self.rz_cos.dtype)
-        out = _Kinematics.apply(q, self) if q.requires_grad else self._frames(q)[0]
+        q = q.reshape(-1, 7)
+        if q.requires_grad:
+            out = _Kinematics.apply(q.to(self.rz_cos.dtype), self)
+        elif _use_numpy(q):
+            out = torch.from_numpy(self._frames_np(q.numpy().astype(np.float64))[0]).to(self.rz_cos.dtype)
+        else:
+            out = self._frames_torch(q.to(self.rz_cos.dtype))[0]
         return out.reshape(*batch, len(self.frames), 4, 4)
 
-    def _frames(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Frame poses (n, F, 4, 4) and joint poses (n, 8, 4, 4) (index 0 = world) for q (n, 7) [rad]."""
+    def _frames_torch(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Frame poses (n, F, 4, 4) and joint poses (n, 8, 4, 4) (index 0 = world) for q (n, 7) [rad], in torch
+        (large batches, other devices)."""
         n = q.shape[0]
         c, s = torch.cos(q)[..., None, None], torch.sin(q)[..., None, None]
         local = c * self.rz_cos + s * self.rz_sin + self.rz_const  # (n, 7, 4, 4)
@@ -81,6 +107,20 @@ class TorchFK(torch.nn.Module):
         for j, idx, buffer in self.placed_groups:  # the others: one (n*4, 4) @ (4, 4k) product per joint
             placed = (joints[:, j] @ getattr(self, buffer)).reshape(n, 4, len(idx), 4)
             frames[:, idx] = placed.transpose(1, 2)
+        return frames, joints
+
+    def _frames_np(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`_frames_torch` in float64 numpy: q (n, 7) [rad] -> frames (n, F, 4, 4), joints (n, 8, 4, 4)."""
+        n, b = len(q), self._np
+        local = np.cos(q)[..., None, None] * b["cos"] + np.sin(q)[..., None, None] * b["sin"] + b["const"]
+        joints = np.empty((n, 8, 4, 4))
+        joints[:, 0] = b["eye"]
+        joints[:, 1] = local[:, 0]
+        for j in range(1, 7):
+            np.matmul(joints[:, j], local[:, j], out=joints[:, j + 1])
+        frames = joints[:, b["frame_joint"]]
+        for j, idx, placement in b["groups"]:
+            frames[:, idx] = (joints[:, j] @ placement).reshape(n, 4, len(idx), 4).transpose(0, 2, 1, 3)
         return frames, joints
 
     def ee_pose(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -101,17 +141,30 @@ class _Kinematics(torch.autograd.Function):
 
     @staticmethod
     def forward(ctx, q: torch.Tensor, fk: TorchFK) -> torch.Tensor:
-        frames, joints = fk._frames(q)
+        if _use_numpy(q):  # float64 numpy, like TorchFK._frames_np
+            frames, joints = fk._frames_np(q.detach().numpy().astype(np.float64))
+            ctx.numpy = (frames, joints[:, 1:], fk._np["after"])
+            return torch.from_numpy(frames).to(q.dtype)
+        frames, joints = fk._frames_torch(q)
         after = torch.as_tensor(fk.frame_joint, device=q.device)[None, :] > torch.arange(7, device=q.device)[:, None]
+        ctx.numpy = None
         ctx.save_for_backward(frames, joints[:, 1:], after.to(q.dtype))
         return frames
 
     @staticmethod
     def backward(ctx, grad: torch.Tensor):
-        frames, joints, after = ctx.saved_tensors  # (n, F, 4, 4), (n, 7, 4, 4), (7, F)
-        m = torch.einsum("jf,nfab,nfcb->njac", after, grad, frames)  # sum_f G_f T_f^T per joint, (n, 7, 4, 4)
+        if ctx.numpy is not None:
+            frames, joints, after = ctx.numpy  # (n, F, 4, 4), (n, 7, 4, 4), (7, F)
+            g = grad.detach().numpy().astype(np.float64) @ np.swapaxes(frames, -1, -2)  # G_f T_f^T, (n, F, 4, 4)
+            m = np.matmul(after, g.reshape(*g.shape[:2], 16)).reshape(-1, 7, 4, 4)  # summed per joint
+            cross = np.cross
+        else:
+            frames, joints, after = ctx.saved_tensors
+            m = torch.einsum("jf,nfab,nfcb->njac", after, grad, frames)  # sum_f G_f T_f^T per joint, (n, 7, 4, 4)
+            cross = torch.linalg.cross
         a, p = joints[..., :3, 2], joints[..., :3, 3]  # joint axes and origins in world, (n, 7, 3)
         # <skew(a), M[:3, :3]> = a . (M32 - M23, M13 - M31, M21 - M12)
-        w = torch.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]], -1)
-        grad_q = (a * w).sum(-1) + (torch.linalg.cross(p, a) * m[..., :3, 3]).sum(-1)
-        return grad_q, None
+        w = (m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1])
+        w = np.stack(w, -1) if ctx.numpy is not None else torch.stack(w, -1)
+        grad_q = (a * w).sum(-1) + (cross(p, a) * m[..., :3, 3]).sum(-1)
+        return torch.as_tensor(grad_q, dtype=grad.dtype), None

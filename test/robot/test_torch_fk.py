@@ -72,3 +72,23 @@ def test_the_closed_form_gradient_matches_autograd_and_pinocchio(rng):
         pin.framesForwardKinematics(panda.model, data, qi)
         ref = pin.getFrameJacobian(panda.model, data, tcp, pin.LOCAL_WORLD_ALIGNED)[:3, :7]
         assert np.abs(jac - ref).max() < 1e-9
+
+
+def test_numpy_and_torch_paths_agree_on_frames_and_gradients(rng, monkeypatch):
+    """Small CPU batches run in numpy, large ones in torch: the same frames and closed-form gradients."""
+    import latent_planner_ros.robot.torch_fk as torch_fk
+
+    fk = TorchFK(dtype=torch.float64)
+    q = torch.as_tensor(rng.uniform(Q_MIN, Q_MAX, size=(64, 7)))
+    weights = torch.as_tensor(rng.standard_normal((64, len(fk.frames), 4, 4)))
+    results = []
+    for limit in (torch_fk.NUMPY_MAX_BATCH, 0):  # numpy, then torch
+        monkeypatch.setattr(torch_fk, "NUMPY_MAX_BATCH", limit)
+        x = q.clone().requires_grad_(True)
+        frames = fk(x)
+        (frames * weights).sum().backward()
+        results.append((frames.detach().numpy(), x.grad.numpy()))
+    (f_np, g_np), (f_torch, g_torch) = results
+    np.testing.assert_allclose(f_np, f_torch, atol=1e-12)
+    np.testing.assert_allclose(g_np, g_torch, atol=1e-9)
+    assert np.abs(g_np).max() > 1e-3  # a real gradient was compared
