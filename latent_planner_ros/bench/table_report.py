@@ -174,23 +174,25 @@ def figures(results: dict, rows: list[dict]) -> dict:
     colours = {n: ("tab:blue" if n in AMP_LS_VARIANTS else "tab:orange") for n in names}
     figs = {}
 
-    fig, ax = plt.subplots(figsize=(9, 6))
+    fig, ax = plt.subplots(figsize=(11, 6))
     timed = sorted((n for n in names if stats[n]["time_median_s"] is not None), key=lambda n: stats[n]["time_median_s"])
-    for k, n in enumerate(timed):  # labels of neighbouring points alternate above and below
+    palette = plt.get_cmap("tab20").colors
+    for k, n in enumerate(timed):  # one colour per row, a legend instead of labels that overlap in clusters
         r = stats[n]
         lo, hi = r["success_ci95"]
         ax.errorbar(
             r["time_median_s"],
             r["success"],
             yerr=[[r["success"] - lo], [hi - r["success"]]],
-            fmt="o",
-            color=colours[n],
+            fmt="o" if n in AMP_LS_VARIANTS else "s",
+            color=palette[k % len(palette)],
             capsize=3,
+            label=f"{n}: {r['success']:.2f} in {r['time_median_s']:.3f} s",
         )
-        offset = (6, (5, -12, 14, -21)[k % 4])
-        ax.annotate(n, (r["time_median_s"], r["success"]), textcoords="offset points", xytext=offset, fontsize=8)
     ax.set(xscale="log", xlabel="median planning time [s]", ylabel="success rate (95 % CI)", ylim=(0, 1.05))
     ax.grid(alpha=0.3)
+    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=8, title="circles: AMP-LS; squares: OMPL")
+    fig.tight_layout()
     figs["success_time"] = fig
 
     fig, ax = plt.subplots(figsize=(max(6, 0.8 * len(names)), 3.8))
