@@ -146,9 +146,8 @@ class _Kinematics(torch.autograd.Function):
             ctx.numpy = (frames, joints[:, 1:], fk._np["after"])
             return torch.from_numpy(frames).to(q.dtype)
         frames, joints = fk._frames_torch(q)
-        after = torch.as_tensor(fk.frame_joint, device=q.device)[None, :] > torch.arange(7, device=q.device)[:, None]
         ctx.numpy = None
-        ctx.save_for_backward(frames, joints[:, 1:], after.to(q.dtype))
+        ctx.save_for_backward(frames, joints[:, 1:], torch.as_tensor(fk._np["after"], dtype=q.dtype, device=q.device))
         return frames
 
     @staticmethod
