@@ -15,6 +15,7 @@ NODES = {
 
 TRAIN = {
     "collision": "latent_planner_ros.training.train_collision:main",
+    "distil": "latent_planner_ros.training.distil_collision:main",
     "lspp": "latent_planner_ros.training.train_lspp:main",
     "vae": "latent_planner_ros.training.train_vae:main",
 }

@@ -1,0 +1,82 @@
+"""Distillation of the collision classifier: the student learns the teacher's logits and ships like a network."""
+
+import dataclasses
+
+import pytest
+import torch
+
+from latent_planner_ros.models.collision_io import file_sha256, load_collision_net, shipped_collision_path
+from latent_planner_ros.models.collision_net import CollisionNet
+from latent_planner_ros.models.collision_predictor import CollisionPredictor
+from latent_planner_ros.training.distil_collision import (
+    LOGIT_CLAMP,
+    agreement,
+    distil,
+    main,
+    parse_args,
+    teacher_samples,
+)
+
+TINY = ["--scenes", "2", "--val-scenes", "1", "--per-scene", "16", "--batch", "64", "--threads", "1"]
+
+
+def test_distil_writes_a_loadable_student_with_the_teachers_encoder(tmp_path):
+    assert main(["--hidden", "16", "8", "--epochs", "1", "--out", str(tmp_path), *TINY]) == 0
+    student, meta = load_collision_net(tmp_path / "best")
+    teacher, teacher_meta = load_collision_net(None)
+    assert student.config.hidden == (16, 8)
+    assert [m.out_features for m in student.classifier if isinstance(m, torch.nn.Linear)] == [16, 8, 1]
+    for name, value in teacher.encoder.state_dict().items():
+        assert torch.equal(student.encoder.state_dict()[name], value), name
+    info = meta["distil"]
+    assert info["teacher_sha256"] == file_sha256(shipped_collision_path().with_suffix(".safetensors"))
+    assert info["command"].startswith("python -m latent_planner_ros train distil --hidden 16 8")
+    assert info["teacher_training"]["training"] == teacher_meta["training"]
+    assert "training" not in meta and meta["vae"] == teacher_meta["vae"]
+    for family in ("train", "heldout"):
+        assert 0.0 <= info["metrics"][f"val_{family}_agreement"] <= 1.0
+    predictor = CollisionPredictor.load(tmp_path / "best")  # finds the teacher's VAE through the metadata
+    p = predictor.p_collision(predictor.encode(torch.rand(200, 3).numpy()), torch.zeros(4, 7))
+    assert p.shape == (4,) and torch.all((p >= 0) & (p <= 1))
+
+
+def test_the_student_learns_the_teachers_logits(tmp_path):
+    args = parse_args(["--hidden", "32", "--epochs", "40", "--out", str(tmp_path), *TINY])
+    torch.set_num_threads(1)
+    student, metrics = distil(args)
+    predictor = CollisionPredictor.load(None)
+    x, y = teacher_samples(predictor, args.scenes, "train", args.seed, args.per_scene)
+    y = y.clamp(-LOGIT_CLAMP, LOGIT_CLAMP)
+    untrained = CollisionNet(dataclasses.replace(predictor.net.config, hidden=(32,)))
+    with torch.no_grad():
+        mse = (student.classifier(x).squeeze(-1) - y).pow(2).mean()
+        mse0 = (untrained.classifier(x).squeeze(-1) - y).pow(2).mean()
+    assert mse < 0.5 * mse0
+    assert metrics["train_mse"] < 0.5 * float(mse0)
+
+
+def test_agreement_counts_the_unsafe_kind_of_disagreement():
+    net = CollisionNet(dataclasses.replace(load_collision_net(None)[0].config, hidden=(4,)))
+    with torch.no_grad():
+        for m in net.classifier:
+            if isinstance(m, torch.nn.Linear):
+                m.weight.zero_()
+                m.bias.fill_(-5.0)  # the student accepts everything (p ~ 0.007)
+    x = torch.zeros(4, net.n_links, 224)
+    teacher = torch.full((4, net.n_links), -5.0)
+    teacher[0, 3] = 2.0  # the teacher refuses the first configuration only
+    scores = agreement(net, x, teacher, threshold=0.2)
+    assert scores["agreement"] == pytest.approx(0.75)
+    assert scores["teacher_refuses_student_accepts"] == pytest.approx(0.25)
+    assert scores["teacher_refusal_rate"] == pytest.approx(0.25)
+
+
+def test_bad_arguments_and_a_missing_teacher_are_refused(tmp_path, capsys):
+    with pytest.raises(SystemExit) as e:
+        parse_args(["--hidden", "0", "--out", str(tmp_path)])
+    assert e.value.code == 2 and "--hidden" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        parse_args(["--hidden", "8", "--out", str(tmp_path), "--epochs", "0"])
+    assert main(["--hidden", "8", "--out", str(tmp_path), "--teacher", str(tmp_path / "nope"), *TINY]) == 2
+    assert "train distil" in capsys.readouterr().err
+    assert not (tmp_path / "best.safetensors").exists()
