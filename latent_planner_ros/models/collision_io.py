@@ -12,7 +12,11 @@ from latent_planner_ros.models.scene_encoder import SceneEncoder
 
 CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
 DEFAULT_COLLISION = "collision"
-"""Stem of the shipped collision predictor in CHECKPOINT_DIR."""
+"""Stem of the shipped collision network in CHECKPOINT_DIR (the scene encoder node's, and the teacher of
+PLANNER_COLLISION)."""
+PLANNER_COLLISION = "collision_distilled"
+"""Stem of the shipped collision predictor the planners use by default: DEFAULT_COLLISION with its per-link
+classifier distilled to hidden widths 64-32 (`train distil`; docs/training.md), the same scene encoder weights."""
 KIND = "collision_net"
 
 

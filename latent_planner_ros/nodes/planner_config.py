@@ -18,7 +18,8 @@ class PlannerNodeConfig:
     vae_checkpoint: str = ""
     """VAE checkpoint stem; empty = the shipped default"""
     collision_checkpoint: str = ""
-    """collision-predictor checkpoint stem (learned backend); empty = the shipped default"""
+    """collision-predictor checkpoint stem (learned backend); empty = the shipped default for planning
+    (checkpoints/collision_distilled)"""
     lspp_checkpoint: str = ""
     """LSPP obstacle-classifier checkpoint stem (cylinder obstacles on `obstacles`); empty = the shipped default"""
     lspp_check: str = "exact"

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from latent_planner_ros.models.collision_io import PLANNER_COLLISION, shipped_collision_path
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
 from latent_planner_ros.models.scene_encoder import SceneEmbedding
 from latent_planner_ros.perception.scene_input import crop_to_bounds
@@ -44,7 +45,9 @@ class LearnedBackend:
 
     @classmethod
     def load(cls, stem: str | Path | None = None, **kwargs) -> LearnedBackend:
-        """The shipped predictor (or `stem`); raises CheckpointError for a missing or bad checkpoint."""
+        """The shipped planning predictor (PLANNER_COLLISION) or `stem`; raises CheckpointError for a missing or
+        bad checkpoint."""
+        stem = shipped_collision_path(PLANNER_COLLISION) if stem is None else stem
         return cls(CollisionPredictor.load(stem), **kwargs)
 
     # -- scene ------------------------------------------------------------------------------------

@@ -120,3 +120,13 @@ def test_hard_check_is_network_or_spheres_and_the_network_sees_only_what_the_sph
     backend.predictor.p_collision_q = lambda emb, qq: seen.append(len(qq)) or net(emb, qq)
     np.testing.assert_array_equal(backend.check(q), by_net | by_spheres)
     assert seen == [int((~by_spheres).sum())]
+
+
+def test_the_default_backend_loads_the_distilled_planning_predictor_and_a_stem_overrides_it():
+    from latent_planner_ros.models.collision_io import DEFAULT_COLLISION, load_collision_net, shipped_collision_path
+
+    planning = LearnedBackend.load()
+    expected, _ = load_collision_net(shipped_collision_path("collision_distilled"))
+    assert planning.predictor.net.config.hidden == expected.config.hidden
+    full = LearnedBackend.load(shipped_collision_path(DEFAULT_COLLISION))
+    assert full.predictor.net.config.hidden != planning.predictor.net.config.hidden
