@@ -1,4 +1,5 @@
-"""The shipped collision predictors (the network and its distilled planning version) separate clearly colliding from clearly free states in a fixed scene."""
+"""The shipped collision predictors (the network and its distilled planning version) separate clearly colliding
+from clearly free states in a fixed scene."""
 
 import numpy as np
 import pytest
