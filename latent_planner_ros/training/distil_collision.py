@@ -30,6 +30,7 @@ from latent_planner_ros.data.render import scene_view
 from latent_planner_ros.data.scene_generator import generate_scene
 from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.collision_io import (
+    DEFAULT_COLLISION,
     file_sha256,
     load_collision_net,
     save_collision_net,
@@ -154,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
         "distil": {
             "teacher_training": teacher_info,
             "command": "python -m latent_planner_ros train distil " + shlex.join(argv),
-            "teacher": str(teacher_stem),
+            "teacher": args.teacher or f"shipped {DEFAULT_COLLISION}",
             "teacher_sha256": file_sha256(teacher_stem.with_suffix(".safetensors")),
             "teacher_hidden": list(meta["architecture"]["hidden"]),
             "threshold": args.threshold,

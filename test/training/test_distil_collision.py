@@ -31,6 +31,7 @@ def test_distil_writes_a_loadable_student_with_the_teachers_encoder(tmp_path):
     info = meta["distil"]
     assert info["teacher_sha256"] == file_sha256(shipped_collision_path().with_suffix(".safetensors"))
     assert info["command"].startswith("python -m latent_planner_ros train distil --hidden 16 8")
+    assert info["teacher"] == "shipped collision"
     assert info["teacher_training"]["training"] == teacher_meta["training"]
     assert "training" not in meta and meta["vae"] == teacher_meta["vae"]
     for family in ("train", "heldout"):
