@@ -19,6 +19,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import torch
 from scipy.spatial import cKDTree
+from tqdm import tqdm
 
 from latent_planner_ros.bench.report import bench_parser, write_report
 from latent_planner_ros.data.camera import CameraConfig, planning_crop
@@ -80,7 +81,8 @@ def evaluate_family(pred: CollisionPredictor, data: CollisionData, seed: int, wi
     camera = replace(CameraConfig(), crop_min=low, crop_max=high)
     box = pred.net.config.encoder
     p, link_p, geo, enc_ms, n_points = [], [], [], [], []
-    for i, scene in enumerate(data.scenes):
+    scenes = tqdm(data.scenes, desc="bench collision: scoring scenes", unit="scene", leave=False)
+    for i, scene in enumerate(scenes):
         cloud, eye = scene_view(scene, rng, camera)
         inside = crop_to_bounds(cloud, box.bounds_min, box.bounds_max)
         t0 = time.perf_counter()
