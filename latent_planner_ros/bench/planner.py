@@ -123,12 +123,13 @@ def main(argv: list[str]) -> int:
     p.add_argument("--backend", default="learned", help="collision backend: learned, geometric or none")
     p.add_argument("--ticks", type=int, default=100, help="closed-loop ticks per problem (at most)")
     p.add_argument("--threads", type=int, default=1, help="torch threads")
+    p.add_argument("--collision-checkpoint", default="", help="learned backend weights (stem; default: shipped)")
     args = p.parse_args(argv)
     torch.set_num_threads(args.threads)
     config = AmpLsConfig(collision_backend=args.backend)
     try:
         vae, _ = load_vae()
-        backend = make_backend(args.backend)
+        backend = make_backend(args.backend, args.collision_checkpoint)
     except CheckpointError as err:
         raise SystemExit(f"bench planner: {err}") from None
     planner = AmpLs(vae, backend, config)
@@ -136,7 +137,11 @@ def main(argv: list[str]) -> int:
         "free": free_space_problems(args.problems, FREE_SEED),
         "cluttered": cluttered_problems(args.problems, CLUTTER_SEED),
     }
-    results: dict = {"backend": args.backend, "config": config.to_dict()}
+    results: dict = {
+        "backend": args.backend,
+        "collision_checkpoint": args.collision_checkpoint or "shipped",
+        "config": config.to_dict(),
+    }
     for key, probs in problems.items():
         results[key] = open_loop(planner, probs, key)
         results[key].update(closed_loop(planner, probs, key, args.ticks, ClosedLoopConfig()))
@@ -147,7 +152,8 @@ def main(argv: list[str]) -> int:
     md = [
         "# AMP-LS planner benchmark",
         "",
-        f"Backend `{args.backend}`, {args.problems} free-space and {args.problems} cluttered problems "
+        f"Backend `{args.backend}` (collision weights: {results['collision_checkpoint']}), "
+        f"{args.problems} free-space and {args.problems} cluttered problems "
         "(held-out scene family), tolerance 1 cm / 15 deg.",
         "",
         "| setting | open-loop success | 95 % CI | collisions | median time [ms] | closed-loop success "

@@ -18,6 +18,13 @@ def test_bench_planner_writes_its_json(tmp_path):
     assert (tmp_path / "planner_times.png").exists()
 
 
+def test_bench_planner_refuses_a_missing_collision_checkpoint(tmp_path):
+    missing = str(tmp_path / "nope")
+    with pytest.raises(SystemExit, match="bench planner"):
+        bench_planner(["--out", str(tmp_path), "--problems", "1", "--collision-checkpoint", missing])
+    assert not (tmp_path / "planner.json").exists()
+
+
 def test_wilson_interval():
     lo, hi = wilson_ci95(28, 30)
     assert lo == pytest.approx(0.787, abs=2e-3) and hi == pytest.approx(0.982, abs=2e-3)
