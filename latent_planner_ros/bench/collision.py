@@ -92,7 +92,7 @@ def evaluate_family(pred: CollisionPredictor, data: CollisionData, seed: int, wi
         q = data.q[data.scene == i]
         with torch.no_grad():
             qt = torch.as_tensor(q)
-            logits = pred.link_logits_q(emb, qt, pred.vae.encode_q(qt))
+            logits = pred.link_logits_q(emb, qt, None)
             p.append(torch.sigmoid(pred.net.combine(logits)).numpy())
             link_p.append(torch.sigmoid(logits).numpy())
         geo.append(geometric_score(q, cKDTree(cloud)) if len(cloud) else np.full(len(q), -np.inf))
@@ -108,7 +108,7 @@ def evaluate_family(pred: CollisionPredictor, data: CollisionData, seed: int, wi
 def query_times(pred: CollisionPredictor, data: CollisionData, repeats: int = 200) -> tuple[float, float]:
     """Median time [ms] of one p_collision(embedding, z) at batch 1, and of one call at batch 1000."""
     emb = pred.encode(scene_cloud(data.scenes[0], np.random.default_rng(0), CameraConfig()))
-    z = torch.randn(1000, pred.net.config.latent, generator=torch.Generator().manual_seed(0))
+    z = torch.randn(1000, pred.vae.config.latent, generator=torch.Generator().manual_seed(0))
     one, many = [], []
     with torch.no_grad():
         for k in range(repeats):

@@ -69,7 +69,8 @@ class ForeignLatentBackend:
     """The learned backend for a planner whose VAE is not the one the collision predictor reads.
 
     The predictor takes the latent of its own VAE: p_collision(q, z) re-encodes the decoded q with that VAE
-    (posterior mean, differentiable in q) instead of passing the planner's z.
+    (posterior mean, differentiable in q; none for a network that does not read z) instead of passing the
+    planner's z.
     """
 
     name = "learned"
@@ -81,7 +82,7 @@ class ForeignLatentBackend:
         self.inner.set_scene(scene, origin)
 
     def p_collision(self, q, z):
-        own = self.inner.predictor.vae.encode_q(q.float())
+        own = self.inner.predictor.latent_of(q.float())
         return self.inner.p_collision(q, own).to(z.dtype)
 
     def check(self, q: np.ndarray) -> np.ndarray:

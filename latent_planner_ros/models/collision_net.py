@@ -45,8 +45,14 @@ class CollisionNet(nn.Module):
     def n_links(self) -> int:
         return len(LABEL_LINKS)
 
+    @property
+    def reads_latent(self) -> bool:
+        """Whether the classifier takes the VAE latent z (config.latent > 0)."""
+        return self.config.latent > 0
+
     def link_inputs(self, grid: torch.Tensor, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
-        """Per-link classifier inputs (S, M, L, D) for grids (S, C, nx, ny, nz), q (S, M, 7) [rad], z (S, M, latent)."""
+        """Per-link classifier inputs (S, M, L, D) for grids (S, C, nx, ny, nz), q (S, M, 7) [rad], z (S, M, latent)
+        (ignored, and may be None, when the network does not read z)."""
         s, m = q.shape[:2]
         poses = self.fk(q.reshape(-1, 7).to(self.link_points.dtype)).reshape(s, m, self.n_links, 4, 4)
         rot, pos = poses[..., :3, :3], poses[..., :3, 3]
@@ -55,13 +61,10 @@ class CollisionNet(nn.Module):
         grid_xyz = norm.reshape(s, -1, 1, 1, 3).flip(-1)  # grid_sample wants (z, y, x) for a (x, y, z) volume
         feats = F.grid_sample(grid, grid_xyz, mode="bilinear", padding_mode="zeros", align_corners=False)
         feats = feats.reshape(s, grid.shape[1], m, self.n_links, -1).permute(0, 2, 3, 4, 1)  # (S, M, L, K, C)
-        parts = [
-            feats.reshape(s, m, self.n_links, -1),
-            norm.reshape(s, m, self.n_links, -1),
-            matrix_to_rot6d(rot),
-            z.to(feats.dtype)[:, :, None, :].expand(s, m, self.n_links, -1),
-            self.one_hot.to(feats.dtype).expand(s, m, -1, -1),
-        ]
+        parts = [feats.reshape(s, m, self.n_links, -1), norm.reshape(s, m, self.n_links, -1), matrix_to_rot6d(rot)]
+        if self.reads_latent:
+            parts.append(z.to(feats.dtype)[:, :, None, :].expand(s, m, self.n_links, -1))
+        parts.append(self.one_hot.to(feats.dtype).expand(s, m, -1, -1))
         return torch.cat(parts, -1)
 
     def link_logits(self, grid: torch.Tensor, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:

@@ -15,8 +15,8 @@ class CollisionNetConfig:
 
     Per link, the classifier sees the voxel features sampled trilinearly at `points_per_link` points along
     the link, those points' positions (normalised to the workspace bounds), the link's 6D rotation, the VAE
-    latent z and a one-hot of the link; a shared MLP gives one logit per link and the links' logits are
-    combined into one (max, or a smooth maximum).
+    latent z (unless `latent` is 0) and a one-hot of the link; a shared MLP gives one logit per link and the
+    links' logits are combined into one (max, or a smooth maximum).
     """
 
     encoder: SceneEncoderConfig = field(default_factory=SceneEncoderConfig)
@@ -25,15 +25,16 @@ class CollisionNetConfig:
     hidden: tuple[int, ...] = (256, 128)
     """hidden widths of the per-link MLP"""
     latent: int = 7
-    """dimension of the VAE latent z"""
+    """dimension of the VAE latent z; 0: the classifier does not read z (a distilled student that sees the link
+    poses only, so that checking a configuration needs no VAE encoder pass)"""
     combine: str = "max"
     """how link logits become the global logit: "max" or "logsumexp" """
 
     def __post_init__(self) -> None:
         if self.combine not in COMBINE:
             raise ValueError(f"combine must be one of {COMBINE}, got {self.combine!r}")
-        if self.points_per_link < 1 or self.latent < 1 or not self.hidden:
-            raise ValueError("points_per_link and latent must be positive and hidden non-empty")
+        if self.points_per_link < 1 or self.latent < 0 or not self.hidden:
+            raise ValueError("points_per_link must be positive, latent not negative and hidden non-empty")
 
     def to_dict(self) -> dict:
         return asdict(self)

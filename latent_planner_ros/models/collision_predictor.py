@@ -30,7 +30,7 @@ class CollisionPredictor:
     """
 
     def __init__(self, net: CollisionNet, vae: RobotStateVAE):
-        if vae.config.latent != net.config.latent:
+        if net.reads_latent and vae.config.latent != net.config.latent:
             raise ValueError(f"VAE latent {vae.config.latent} != collision net latent {net.config.latent}")
         self.net = net.eval().requires_grad_(False)
         self.vae = vae.eval().requires_grad_(False)
@@ -68,9 +68,19 @@ class CollisionPredictor:
         """Rebuild an embedding received as voxel centres (V, 3) and features (V, C); ValueError if off-grid."""
         return SceneEmbedding.from_points(centres, features, self.net.config.encoder)
 
-    def link_logits_q(self, embedding: SceneEmbedding, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
-        """Per-link logits (B, L) for configurations q (B, 7) [rad] with their latents z (B, latent)."""
+    def link_logits_q(self, embedding: SceneEmbedding, q: torch.Tensor, z: torch.Tensor | None) -> torch.Tensor:
+        """Per-link logits (B, L) for configurations q (B, 7) [rad] with their latents z (B, latent) (None: the
+        posterior means of q, computed only if the network reads z)."""
+        if z is None:
+            z = self.latent_of(q)
         return self.net.link_logits(embedding.features.to(q.dtype)[None], q[None], z[None])[0]
+
+    def latent_of(self, q: torch.Tensor) -> torch.Tensor:
+        """The VAE posterior means (B, latent) of configurations q (B, 7) [rad], or (B, 0) for a network that
+        does not read z (no encoder pass then)."""
+        if not self.net.reads_latent:
+            return q.new_zeros(len(q), 0)
+        return self.vae.encode_q(q.to(torch.float32)).to(q.dtype)
 
     def link_logits(self, embedding: SceneEmbedding, z: torch.Tensor) -> torch.Tensor:
         """Per-link logits (B, L) for latents z (B, latent), with q = vae.decode(z).q."""
@@ -86,8 +96,7 @@ class CollisionPredictor:
 
     def p_collision_q(self, embedding: SceneEmbedding, q: torch.Tensor) -> torch.Tensor:
         """Probability of collision (B,) for configurations q (B, 7) [rad] (z = posterior mean of q)."""
-        z = self.vae.encode_q(q.to(torch.float32)).to(q.dtype)
-        return torch.sigmoid(self.net.combine(self.link_logits_q(embedding, q, z)))
+        return torch.sigmoid(self.net.combine(self.link_logits_q(embedding, q, None)))
 
 
 def _recorded_vae(info: dict) -> Path:

@@ -3,7 +3,9 @@
 The teacher (default: the shipped network) keeps its scene encoder and the VAE it reads; only the per-link
 MLP is replaced. No labels are needed: the student learns the teacher's link logits (clamped to
 +-LOGIT_CLAMP) on the inputs the planner gives it, i.e. `CollisionNet.link_inputs` for uniform joint
-configurations in rendered training-family scenes, each encoded as the planner encodes a cloud.
+configurations in rendered training-family scenes, each encoded as the planner encodes a cloud. With
+`--no-latent` the student does not read the VAE latent z (the teacher still does): it learns the teacher's
+logits from the link poses alone, so that the planner's hard check needs no VAE encoder pass.
 
 OUT/best holds the student with the teacher's encoder weights. Its metadata keeps the teacher's VAE, box and
 camera and moves the teacher's training record under `distil.teacher_training`. It adds, under `distil`, the
@@ -46,9 +48,9 @@ LOGIT_CLAMP = 12.0
 
 
 def teacher_samples(
-    predictor: CollisionPredictor, scenes: int, family: str, seed: int, per_scene: int
+    predictor: CollisionPredictor, student: CollisionNet, scenes: int, family: str, seed: int, per_scene: int
 ) -> tuple[torch.Tensor, torch.Tensor]:
-    """Classifier inputs (S * per_scene, L, D) and the teacher's link logits (S * per_scene, L)."""
+    """The student's classifier inputs (S * per_scene, L, D) and the teacher's link logits (S * per_scene, L)."""
     net, vae = predictor.net, predictor.vae
     enc = net.config.encoder
     rng = np.random.default_rng(seed)
@@ -58,9 +60,9 @@ def teacher_samples(
         emb = predictor.encode(crop_to_bounds(cloud, enc.bounds_min, enc.bounds_max), origin)
         q = torch.as_tensor(rng.uniform(Q_MIN, Q_MAX, (per_scene, 7)), dtype=torch.float32)
         with torch.no_grad():
-            x = net.link_inputs(emb.features[None], q[None], vae.encode_q(q)[None])[0]
-            xs.append(x)
-            ys.append(net.classifier(x).squeeze(-1))
+            z = vae.encode_q(q)[None]
+            xs.append(student.link_inputs(emb.features[None], q[None], z)[0])
+            ys.append(net.link_logits(emb.features[None], q[None], z)[0])
     return torch.cat(xs), torch.cat(ys)
 
 
@@ -82,12 +84,13 @@ def distil(args: argparse.Namespace) -> tuple[CollisionNet, dict]:
     """Train the student; returns it and its metrics."""
     predictor = CollisionPredictor.load(args.teacher)
     teacher = predictor.net
-    config = dataclasses.replace(teacher.config, hidden=tuple(args.hidden))
+    latent = 0 if args.no_latent else teacher.config.latent
+    config = dataclasses.replace(teacher.config, hidden=tuple(args.hidden), latent=latent)
     student = CollisionNet(config)
     student.encoder.load_state_dict(teacher.encoder.state_dict())
     student.encoder.requires_grad_(False)
     torch.manual_seed(args.seed)
-    x, y = teacher_samples(predictor, args.scenes, "train", args.seed, args.per_scene)
+    x, y = teacher_samples(predictor, student, args.scenes, "train", args.seed, args.per_scene)
     x, y = x.reshape(-1, x.shape[-1]), y.reshape(-1).clamp(-LOGIT_CLAMP, LOGIT_CLAMP)
     steps_per_epoch = max(1, len(x) // args.batch)
     opt = torch.optim.Adam(student.classifier.parameters(), lr=args.lr)
@@ -106,7 +109,7 @@ def distil(args: argparse.Namespace) -> tuple[CollisionNet, dict]:
     student.eval()
     metrics = {"train_mse": loss.item()}
     for family, seed in (("train", args.seed + 1), ("heldout", args.seed + 2)):
-        vx, vy = teacher_samples(predictor, args.val_scenes, family, seed, args.per_scene)
+        vx, vy = teacher_samples(predictor, student, args.val_scenes, family, seed, args.per_scene)
         scores = agreement(student, vx, vy, args.threshold)
         metrics.update({f"val_{family}_{k}": v for k, v in scores.items()})
     return student, metrics
@@ -117,6 +120,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--hidden", type=int, nargs="+", required=True, metavar="W", help="the student's hidden widths")
     p.add_argument("--out", type=Path, required=True, help="run directory (writes OUT/best)")
     p.add_argument("--teacher", default=None, help="teacher checkpoint stem (default: the shipped network)")
+    p.add_argument(
+        "--no-latent", action="store_true", help="the student reads the link poses only, not the VAE latent z"
+    )
     p.add_argument("--scenes", type=int, default=1500, help="training-family scenes to learn from")
     p.add_argument("--val-scenes", type=int, default=60, help="scenes per family for the agreement metrics")
     p.add_argument("--per-scene", type=int, default=256, help="uniform joint configurations per scene")

@@ -1,5 +1,7 @@
 """Scene encoder and collision network: shapes, embedding transport, gradients, checkpoints."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
@@ -83,6 +85,19 @@ def test_gradient_wrt_z_matches_finite_differences(rng):
     z = torch.randn(3, 7, dtype=torch.float64, requires_grad=True)
     assert torch.autograd.gradcheck(lambda zz: pred.p_collision(emb, zz), (z,), eps=1e-6, atol=1e-6, rtol=1e-4)
     assert torch.autograd.gradcheck(lambda zz: pred.link_logits(emb, zz), (z,), eps=1e-6, atol=1e-6, rtol=1e-4)
+
+
+def test_a_network_that_does_not_read_z_still_has_gradients_through_the_decoder(rng):
+    net = CollisionNet(dataclasses.replace(SMALL, latent=0)).to(torch.float64)
+    pred = CollisionPredictor(net, RobotStateVAE(VaeConfig(hidden=16, layers=1)).to(torch.float64))
+    assert net.classifier[0].in_features == CollisionNet(SMALL).classifier[0].in_features - 7
+    emb = pred.encode(_cloud(rng))
+    emb = SceneEmbedding(emb.features.double(), emb.config)
+    z = torch.randn(3, 7, dtype=torch.float64, requires_grad=True)
+    assert torch.autograd.gradcheck(lambda zz: pred.p_collision(emb, zz), (z,), eps=1e-6, atol=1e-6, rtol=1e-4)
+    assert pred.latent_of(torch.zeros(3, 7)).shape == (3, 0)
+    with pytest.raises(ValueError, match="latent"):
+        CollisionNetConfig(latent=-1)
 
 
 def test_checkpoint_round_trip_and_clear_errors(tmp_path, rng):

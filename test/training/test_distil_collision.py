@@ -41,19 +41,46 @@ def test_distil_writes_a_loadable_student_with_the_teachers_encoder(tmp_path):
     assert p.shape == (4,) and torch.all((p >= 0) & (p <= 1))
 
 
-def test_the_student_learns_the_teachers_logits(tmp_path):
-    args = parse_args(["--hidden", "32", "--epochs", "40", "--out", str(tmp_path), *TINY])
+@pytest.mark.parametrize("no_latent", [False, True])
+def test_the_student_learns_the_teachers_logits(tmp_path, no_latent):
+    flags = ["--no-latent"] if no_latent else []
+    args = parse_args(["--hidden", "32", "--epochs", "40", "--out", str(tmp_path), *flags, *TINY])
     torch.set_num_threads(1)
     student, metrics = distil(args)
+    assert student.reads_latent is not no_latent
     predictor = CollisionPredictor.load(None)
-    x, y = teacher_samples(predictor, args.scenes, "train", args.seed, args.per_scene)
+    x, y = teacher_samples(predictor, student, args.scenes, "train", args.seed, args.per_scene)
     y = y.clamp(-LOGIT_CLAMP, LOGIT_CLAMP)
-    untrained = CollisionNet(dataclasses.replace(predictor.net.config, hidden=(32,)))
+    untrained = CollisionNet(student.config)
     with torch.no_grad():
         mse = (student.classifier(x).squeeze(-1) - y).pow(2).mean()
         mse0 = (untrained.classifier(x).squeeze(-1) - y).pow(2).mean()
     assert mse < 0.5 * mse0
     assert metrics["train_mse"] < 0.5 * float(mse0)
+
+
+def test_a_student_without_the_latent_needs_no_vae_encoder_pass(tmp_path, monkeypatch):
+    assert main(["--hidden", "16", "--epochs", "1", "--no-latent", "--out", str(tmp_path), *TINY]) == 0
+    student, meta = load_collision_net(tmp_path / "best")
+    assert meta["architecture"]["latent"] == 0 and not student.reads_latent
+    teacher = load_collision_net(None)[0]
+    in_features = [m.in_features for m in (student.classifier[0], teacher.classifier[0])]
+    assert in_features[1] - in_features[0] == teacher.config.latent  # the same inputs less z
+    predictor = CollisionPredictor.load(tmp_path / "best")
+    emb = predictor.encode(torch.rand(200, 3).numpy())
+    q = torch.rand(5, 7)
+    with torch.no_grad():
+        z = predictor.vae.encode_q(q)
+        p_latent = predictor.p_collision(emb, z)  # q decoded from z, z itself unread
+        p_decoded = predictor.p_collision_q(emb, predictor.vae.decode_q(z))
+
+        def no_encoder(*_):
+            raise AssertionError("the VAE encoder ran")
+
+        monkeypatch.setattr(predictor.vae, "encode_q", no_encoder)
+        p_q = predictor.p_collision_q(emb, q)
+    assert p_q.shape == (5,) and torch.all((p_q >= 0) & (p_q <= 1))
+    torch.testing.assert_close(p_latent, p_decoded)
 
 
 def test_agreement_counts_the_unsafe_kind_of_disagreement():
