@@ -6,11 +6,13 @@ CollisionPredictor (collision_predictor.py) ties it to a frozen VAE so that q = 
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
 
 from latent_planner_ros.data.link_geometry import LABEL_LINKS, link_geometry
+from latent_planner_ros.models import trilinear
 from latent_planner_ros.models.collision_net_config import CollisionNetConfig
 from latent_planner_ros.models.scene_encoder import SceneEncoder
 from latent_planner_ros.robot.rotations import matrix_to_rot6d
@@ -40,6 +42,8 @@ class CollisionNet(nn.Module):
         self.register_buffer("centre", (lo + hi) / 2, persistent=False)
         self.register_buffer("half_extent", (hi - lo) / 2, persistent=False)
         self.register_buffer("one_hot", torch.eye(n_links), persistent=False)
+        self._link_points_np = self.link_points.double().numpy()  # (L, K, 3), for check_logits
+        self._centre_np, self._half_np = self.centre.double().numpy(), self.half_extent.double().numpy()
 
     @property
     def n_links(self) -> int:
@@ -66,6 +70,25 @@ class CollisionNet(nn.Module):
             parts.append(z.to(feats.dtype)[:, :, None, :].expand(s, m, self.n_links, -1))
         parts.append(self.one_hot.to(feats.dtype).expand(s, m, -1, -1))
         return torch.cat(parts, -1)
+
+    def check_logits(self, table: torch.Tensor, poses: np.ndarray) -> torch.Tensor:
+        """Per-link logits (M, L) without autograd, from the grid's rows (trilinear.channels_last) and the link
+        poses (M, L, 4, 4) [m] of LABEL_LINKS: `link_logits` (to float32 rounding) for the hard checks, the
+        sampling done by trilinear.sample. Only for a network that does not read z."""
+        if self.reads_latent:
+            raise ValueError("check_logits needs a network without the latent input (config.latent 0)")
+        enc = self.config.encoder
+        m, n_links = len(poses), self.n_links
+        rot, pos = poses[..., :3, :3], poses[..., :3, 3]
+        pts = np.einsum("mlij,lkj->mlki", rot, self._link_points_np) + pos[:, :, None, :]  # (M, L, K, 3)
+        norm = (pts - self._centre_np) / self._half_np
+        cells = ((norm + 1.0) * np.asarray(enc.grid_shape) - 1.0) / 2.0  # grid_sample's align_corners=False
+        feats = trilinear.sample(table, enc.grid_shape, cells.reshape(-1, 3)).reshape(m, n_links, -1)
+        rot6d = np.concatenate([rot[..., :, 0], rot[..., :, 1]], -1)  # matrix_to_rot6d
+        geometry = torch.from_numpy(np.concatenate([norm.reshape(m, n_links, -1), rot6d], -1).astype(np.float32))
+        x = torch.cat([feats, geometry, self.one_hot.expand(m, -1, -1)], -1)
+        with torch.no_grad():
+            return self.classifier(x).squeeze(-1)
 
     def link_logits(self, grid: torch.Tensor, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
         """Per-link collision logits (S, M, L) for grids (S, C, nx, ny, nz), q (S, M, 7) [rad], z (S, M, latent)."""

@@ -56,25 +56,32 @@ class BallQuery:
         also True for a non-finite centre."""
         centres = np.asarray(centres, dtype=float).reshape(-1, 3)
         radii = np.broadcast_to(np.asarray(radii, dtype=float), (len(centres),))
-        hit = ~np.all(np.isfinite(centres), axis=1)
+        ct = np.ascontiguousarray(centres.T)  # (3, M): every operation below runs along M (numpy is slow on rows of 3)
+        hit = ~np.isfinite(ct[0] + ct[1] + ct[2])
         if not len(self.cloud) or not len(centres):
             return hit
-        centres = np.where(hit[:, None], 0.0, centres)
-        r = radii[:, None]
-        top = self._top
-        a = np.minimum(np.maximum(np.floor((centres - r - self._lo) / self.cell).astype(np.intp), 0), top)
-        b = np.minimum(np.maximum(np.floor((centres + r - self._lo) / self.cell).astype(np.intp) + 1, 0), top)
-        a *= self._strides  # flat offsets of the box corners along each axis
-        b *= self._strides
+        if hit.any():
+            ct[:, hit] = 0.0
+        inv = 1.0 / self.cell
+        u = (ct - self._lo[:, None]) * inv  # (3, M) [voxels]
+        r = radii * inv + 1e-6  # widened by a hair: rounding never shrinks the box below the sphere's
+        top, strides = self._top[:, None], self._strides[:, None]
+        a = np.floor(u - r).astype(np.intp)
+        b = np.floor(u + r).astype(np.intp) + 1
+        np.minimum(np.maximum(a, 0, out=a), top, out=a)  # np.clip costs more than both at this size
+        np.minimum(np.maximum(b, 0, out=b), top, out=b)
+        a *= strides  # flat offsets of the box corners along each axis
+        b *= strides
         p = self._prefix.ravel()
-        (x0, y0, z0), (x1, y1, z1) = a.T, b.T
+        (x0, y0, z0), (x1, y1, z1) = a, b
+        xy11, xy01, xy10, xy00 = x1 + y1, x0 + y1, x1 + y0, x0 + y0
         count = (
-            p[x1 + y1 + z1] - p[x0 + y1 + z1] - p[x1 + y0 + z1] - p[x1 + y1 + z0]
-            + p[x0 + y0 + z1] + p[x0 + y1 + z0] + p[x1 + y0 + z0] - p[x0 + y0 + z0]
+            p[xy11 + z1] - p[xy01 + z1] - p[xy10 + z1] - p[xy11 + z0]
+            + p[xy00 + z1] + p[xy01 + z0] + p[xy10 + z0] - p[xy00 + z0]
         )  # fmt: skip
         cand = np.flatnonzero(count > 0)
         if len(cand):
             bound = float(radii[cand].max()) + 1e-9
-            d, _ = self._kdtree().query(centres[cand], distance_upper_bound=bound)
+            d, _ = self._kdtree().query(ct[:, cand].T, distance_upper_bound=bound)
             hit[cand] |= d < radii[cand]
         return hit

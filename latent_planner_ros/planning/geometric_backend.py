@@ -46,6 +46,10 @@ class GeometricBackend:
         self._idx = torch.as_tensor(np.flatnonzero(moving))
         self._radius = torch.as_tensor(self.spheres.radius[moving], dtype=torch.float32)
         self._fk = TorchFK()
+        # the hard check in float64 numpy: each moving sphere's link, homogeneous centre (S, 4) and radius [m]
+        self._sphere_link = self.spheres.link[moving]
+        self._sphere_centre = np.concatenate([self.spheres.centre[moving], np.ones((int(moving.sum()), 1))], 1)
+        self._check_radius = np.maximum(self.spheres.radius[moving] + self.config.check_margin, 0.0)
         self._lo = np.asarray(self.config.bounds_min, dtype=float)
         self._hi = np.asarray(self.config.bounds_max, dtype=float)
         self.set_scene(np.zeros((0, 3)))
@@ -98,8 +102,14 @@ class GeometricBackend:
         q = np.atleast_2d(q)
         if not len(self.cloud):
             return np.zeros(len(q), dtype=bool)
-        with torch.no_grad():
-            c = self._centres(torch.as_tensor(q, dtype=torch.float32)).numpy()
-        radii = np.maximum(self._radius.numpy() + self.config.check_margin, 0.0)
-        hit = self._balls.occupied(c.reshape(-1, 3), np.tile(radii, len(q)))
+        return self.check_frames(self._fk.frames_np(q))
+
+    def check_frames(self, frames: np.ndarray) -> np.ndarray:
+        """`check` from the link frames (M, len(LINK_FRAMES), 4, 4) [m] of the configurations (TorchFK.frames_np),
+        for callers that need the frames for other checks too."""
+        if not len(self.cloud):
+            return np.zeros(len(frames), dtype=bool)
+        t = frames[:, self._sphere_link, :3, :]  # (M, S, 3, 4)
+        c = np.einsum("msij,sj->msi", t, self._sphere_centre)  # R c + p, (M, S, 3)
+        hit = self._balls.occupied(c.reshape(-1, 3), np.tile(self._check_radius, len(frames)))
         return hit.reshape(c.shape[:2]).any(axis=1)

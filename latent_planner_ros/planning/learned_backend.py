@@ -12,11 +12,15 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from latent_planner_ros.data.link_geometry import LABEL_LINKS
+from latent_planner_ros.models import trilinear
 from latent_planner_ros.models.collision_io import PLANNER_COLLISION, shipped_collision_path
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
 from latent_planner_ros.models.scene_encoder import SceneEmbedding
 from latent_planner_ros.perception.scene_input import crop_to_bounds
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
+from latent_planner_ros.robot.panda import LINK_FRAMES
+from latent_planner_ros.robot.torch_fk import TorchFK
 from msg_adapters import cloud_to_embedding
 
 CHECK_THRESHOLD = 0.2
@@ -42,6 +46,9 @@ class LearnedBackend:
         self.threshold = float(threshold)
         self.geometric = GeometricBackend() if geometric_check else None
         self.embedding: SceneEmbedding = predictor.encode(np.zeros((0, 3), dtype=np.float32))
+        self._fk = TorchFK()  # every link frame, for the hard check
+        self._label_frames = [LINK_FRAMES.index(name) for name in LABEL_LINKS]  # the network's links among them
+        self._table: tuple[SceneEmbedding, torch.Tensor] | None = None  # the embedding's rows (trilinear)
 
     @classmethod
     def load(cls, stem: str | Path | None = None, **kwargs) -> LearnedBackend:
@@ -85,12 +92,21 @@ class LearnedBackend:
 
     def check(self, q: np.ndarray) -> np.ndarray:
         """Hard decision (M,) bool for configurations q (M, 7) [rad]."""
-        q = np.atleast_2d(np.asarray(q, dtype=np.float32))
+        q = np.atleast_2d(np.asarray(q, dtype=np.float64))
+        frames = self._fk.frames_np(q)  # (M, F, 4, 4): one FK for both parts of the check
         # the cheaper geometric check first: the network only sees the configurations it left open
-        hits = self.geometric.check(q) if self.geometric is not None else np.zeros(len(q), dtype=bool)
+        hits = self.geometric.check_frames(frames) if self.geometric is not None else np.zeros(len(q), dtype=bool)
         todo = np.flatnonzero(~hits)
-        if len(todo):
+        if not len(todo):
+            return hits
+        net = self.predictor.net
+        if net.reads_latent:  # the latent comes from a VAE encoder pass of q
             with torch.no_grad():
-                p = self.predictor.p_collision_q(self.embedding, torch.from_numpy(q[todo])).numpy()
-            hits[todo] = p >= self.threshold
+                p = self.predictor.p_collision_q(self.embedding, torch.from_numpy(q[todo]).float()).numpy()
+        else:
+            if self._table is None or self._table[0] is not self.embedding:
+                self._table = (self.embedding, trilinear.channels_last(self.embedding.features))
+            logits = net.check_logits(self._table[1], frames[todo][:, self._label_frames])
+            p = torch.sigmoid(net.combine(logits)).numpy()
+        hits[todo] = p >= self.threshold
         return hits

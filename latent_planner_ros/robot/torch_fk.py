@@ -123,6 +123,10 @@ class TorchFK(torch.nn.Module):
             frames[:, idx] = (joints[:, j] @ placement).reshape(n, 4, len(idx), 4).transpose(0, 2, 1, 3)
         return frames, joints
 
+    def frames_np(self, q: np.ndarray) -> np.ndarray:
+        """Frame poses (M, F, 4, 4) float64 [m] of q (M, 7) [rad] in numpy (no torch, no autograd): for checks."""
+        return self._frames_np(np.asarray(q, dtype=np.float64).reshape(-1, 7))[0]
+
     def ee_pose(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """End-effector (panda_hand_tcp) position (..., 3) [m] and rotation matrix (..., 3, 3)."""
         if self.ee_index is None:

@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from latent_planner_ros.data.link_geometry import LABEL_LINKS
+from latent_planner_ros.models import trilinear
 from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.collision_io import load_collision_net, load_scene_encoder, save_collision_net
 from latent_planner_ros.models.collision_net import CollisionNet
@@ -138,3 +139,18 @@ def test_conv3d_by_slices_equals_conv3d(rng, bias):
         torch.testing.assert_close(conv3d_by_slices(x, conv), conv(x), rtol=1e-5, atol=1e-5)
     other = torch.nn.Conv3d(5, 4, 1)  # not a 3x3x3 same-size convolution: left to conv3d
     torch.testing.assert_close(conv3d_by_slices(x, other), other(x))
+
+
+def test_check_logits_equal_link_logits_for_a_network_that_does_not_read_z(rng):
+    torch.manual_seed(1)
+    net = CollisionNet(dataclasses.replace(SMALL, latent=0)).eval()
+    grid = net.encoder.encode(_cloud(rng)).features
+    q = torch.as_tensor(Q_READY + rng.uniform(-1.5, 1.5, size=(40, 7)), dtype=torch.float32)
+    with torch.no_grad():
+        expected = net.link_logits(grid[None], q[None], None)[0]
+    poses = net.fk.frames_np(q.double().numpy())  # (M, L, 4, 4) of LABEL_LINKS
+    got = net.check_logits(trilinear.channels_last(grid), poses)
+    assert got.shape == (40, len(LABEL_LINKS))
+    torch.testing.assert_close(got, expected, atol=1e-4, rtol=1e-4)
+    with pytest.raises(ValueError, match="latent"):
+        CollisionNet(SMALL).check_logits(trilinear.channels_last(grid), poses)
