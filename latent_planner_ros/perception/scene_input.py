@@ -51,7 +51,9 @@ def crop_to_bounds(points: np.ndarray, bounds_min, bounds_max) -> np.ndarray:
     """
     low, high = np.asarray(bounds_min, dtype=np.float32), np.asarray(bounds_max, dtype=np.float32)
     p = np.asarray(points).astype(np.float32, copy=False)
-    inside = np.all((p >= low) & (p < high), axis=1)
+    inside = np.ones(len(p), dtype=bool)
+    for axis in range(3):  # column by column: np.all(..., axis=1) is slow on rows of 3
+        inside &= (p[:, axis] >= low[axis]) & (p[:, axis] < high[axis])
     return points[inside]
 
 

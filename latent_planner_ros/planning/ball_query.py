@@ -10,10 +10,16 @@ is free; only the rest (typically under 1 %) go to the KD-tree. The answer equal
 from __future__ import annotations
 
 import numpy as np
+import torch
 from scipy.spatial import cKDTree
 
 MAX_CELLS = 2_000_000
 """largest occupancy grid (voxels); a cloud spread wider gets coarser voxels"""
+
+
+def finite_rows(points: np.ndarray) -> np.ndarray:
+    """(N,) bool: the rows of points (N, 3) with three finite coordinates (np.all(..., axis=1) is slow on rows of 3)."""
+    return np.isfinite(points[:, 0]) & np.isfinite(points[:, 1]) & np.isfinite(points[:, 2])
 
 
 class BallQuery:
@@ -30,17 +36,18 @@ class BallQuery:
         self._tree: cKDTree | None = None
         if not len(self.cloud):
             return
-        extent = self.cloud.max(axis=0) - self.cloud.min(axis=0)
-        cells = float(np.prod(extent / self.cell + 3))
+        ct = np.ascontiguousarray(self.cloud.T)  # (3, N): numpy is slow along rows of 3
+        lo, hi = ct.min(axis=1), ct.max(axis=1)
+        cells = float(np.prod((hi - lo) / self.cell + 3))
         if cells > MAX_CELLS:  # a cloud spread far (outliers): coarser voxels keep the grid small, answers exact
             self.cell *= (cells / MAX_CELLS) ** (1 / 3)
-        self._lo = self.cloud.min(axis=0) - self.cell
-        ijk = np.floor((self.cloud - self._lo) / self.cell).astype(np.intp)
-        shape = ijk.max(axis=0) + 2
+        self._lo = lo - self.cell
+        ijk = np.floor((ct - self._lo[:, None]) / self.cell).astype(np.intp)
+        shape = ijk.max(axis=1) + 2
         occ = np.zeros(shape, dtype=np.int32)
-        occ[ijk[:, 0], ijk[:, 1], ijk[:, 2]] = 1
+        occ[ijk[0], ijk[1], ijk[2]] = 1
         prefix = np.zeros(shape + 1, dtype=np.int32)  # prefix[i, j, k] = occupied voxels in [:i, :j, :k]
-        prefix[1:, 1:, 1:] = occ.cumsum(0).cumsum(1).cumsum(2)
+        prefix[1:, 1:, 1:] = torch.from_numpy(occ).cumsum(0).cumsum_(1).cumsum_(2).numpy()  # numpy's: 3x slower
         self._prefix = prefix
         self._strides = np.asarray(prefix.strides, dtype=np.intp) // prefix.itemsize
         self._top = np.asarray(prefix.shape) - 1

@@ -14,7 +14,7 @@ import torch
 import torch.nn.functional as F
 from scipy.ndimage import distance_transform_edt
 
-from latent_planner_ros.planning.ball_query import BallQuery
+from latent_planner_ros.planning.ball_query import BallQuery, finite_rows
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.spheres import panda_spheres
 from latent_planner_ros.robot.torch_fk import TorchFK
@@ -57,7 +57,7 @@ class GeometricBackend:
     def set_check_cloud(self, cloud: np.ndarray) -> np.ndarray:
         """Use cloud (N, 3) [m] for the hard check only (no distance field); returns its finite points."""
         cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
-        cloud = cloud[np.all(np.isfinite(cloud), axis=1)]
+        cloud = cloud[finite_rows(cloud)]
         self.cloud = cloud
         self._balls = BallQuery(cloud)
         return cloud

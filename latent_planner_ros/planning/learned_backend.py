@@ -18,6 +18,7 @@ from latent_planner_ros.models.collision_io import PLANNER_COLLISION, shipped_co
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
 from latent_planner_ros.models.scene_encoder import SceneEmbedding
 from latent_planner_ros.perception.scene_input import crop_to_bounds
+from latent_planner_ros.planning.ball_query import finite_rows
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.torch_fk import TorchFK
@@ -67,7 +68,7 @@ class LearnedBackend:
             self.embedding = scene
             return
         cloud = np.asarray(scene, dtype=np.float32).reshape(-1, 3)
-        cloud = cloud[np.all(np.isfinite(cloud), axis=1)]
+        cloud = cloud[finite_rows(cloud)]
         if origin is not None and not np.all(np.isfinite(np.asarray(origin, dtype=float))):
             origin = None
         enc = self.predictor.net.config.encoder  # the network sees its workspace box, as in training
