@@ -48,12 +48,19 @@ class PlanAdditions:
             return None
         b = min(near, key=lambda i: float(ev["pos_err"][i]))
         s.finish_tried[b] = s.iteration
-        ik = IkConfig(max_iters=cfg.finish_ik_iters, max_step_rad=cfg.finish_ik_step_rad)
+        ik = self._finish_ik()
         with self.clock.section("ik"):
             sol = solve_ik(self.panda, goal, s.q_prev[b], ik)
         if not sol.converged or np.abs(sol.q - s.q_prev[b]).max() > cfg.finish_max_rad:
             return None
         return b if self._finish_to(s, b, sol.q) else None
+
+    def _finish_ik(self) -> IkConfig:
+        """The IK settings of one exact-finish attempt."""
+        cfg = self.config
+        return IkConfig(
+            max_iters=cfg.finish_ik_iters, max_step_rad=cfg.finish_ik_step_rad, stall_iters=cfg.finish_ik_stall
+        )
 
     def _direct_first(self, s: LatentSearch, goal: Goal) -> int | None:
         """Straight first (`direct_first`): the exact finish's IK from the start, and the straight segment from the
@@ -63,7 +70,7 @@ class PlanAdditions:
             return None
         start = s.paths[0][0][0]
         with self.clock.section("ik"):
-            ik = IkConfig(max_iters=cfg.finish_ik_iters, max_step_rad=cfg.finish_ik_step_rad)
+            ik = self._finish_ik()
             sol = solve_ik(self.panda, goal, start, ik)
         if not sol.converged or np.abs(sol.q - start).max() > cfg.finish_max_rad:
             return None

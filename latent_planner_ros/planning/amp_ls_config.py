@@ -60,6 +60,9 @@ class AmpLsConfig:
     """damped-least-squares iterations of one exact-finish attempt"""
     finish_ik_step_rad: float = 0.3
     """largest joint change [rad] of one of those iterations"""
+    finish_ik_stall: int = 12
+    """an exact-finish attempt gives up once its position and orientation errors have not dropped below 0.99 of
+    their best for this many iterations (ik.stall_iters); 0: it runs all finish_ik_iters"""
     direct_first: bool = True
     """open loop, with the exact finish and `shortcut` on: before the first optimisation step, run the exact
     finish's IK from the start itself and try the straight segment to its solution (beyond the seed: a goal
@@ -148,9 +151,10 @@ class AmpLsConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 problems.append(f"{name} must be a finite number >= 0, got {v!r}")
-        if not (isinstance(self.goal_guidance, int) and not isinstance(self.goal_guidance, bool)
-                and self.goal_guidance >= 0):  # fmt: skip
-            problems.append(f"goal_guidance must be an integer >= 0, got {self.goal_guidance!r}")
+        for name in ("goal_guidance", "finish_ik_stall"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and not isinstance(v, bool) and v >= 0):
+                problems.append(f"{name} must be an integer >= 0, got {v!r}")
         for name in (
             "max_steps",
             "interp_steps",

@@ -46,12 +46,18 @@ class IkConfig:
     """solutions closer than this (max joint difference) [rad] to a kept one are duplicates"""
     timeout_s: float = 1.0
     """wall-clock budget of the whole multi-seed search [s]"""
+    stall_iters: int = 0
+    """give a seed up (unconverged) once neither its position nor its orientation error has dropped below 0.99 of
+    its best for this many iterations (stuck at a joint limit or a local minimum); 0: run max_iters"""
 
     def __post_init__(self) -> None:
         for name in ("n_seeds", "max_solutions", "max_iters"):
             v = getattr(self, name)
             if not (isinstance(v, int) and not isinstance(v, bool) and v >= 1):
                 raise ValueError(f"ik.{name} must be an integer >= 1, got {v!r}")
+        v = self.stall_iters
+        if not (isinstance(v, int) and not isinstance(v, bool) and v >= 0):
+            raise ValueError(f"ik.stall_iters must be an integer >= 0, got {v!r}")
         for name in ("damping", "max_step_rad", "pos_tol", "ori_tol_deg", "min_separation_rad", "timeout_s"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
@@ -122,11 +128,13 @@ def solve_ik(panda: PandaModel, goal: Goal, q0: np.ndarray, config: IkConfig, fr
     damping = config.damping * np.eye(3 if position_only else 6)
     q = np.minimum(np.maximum(np.asarray(q0, dtype=float), Q_MIN), Q_MAX)
     pos_err = math.inf
+    best_pos, best_ori, best_it = math.inf, math.inf, 0
     for it in range(config.max_iters + 1):
         pin.framesForwardKinematics(model, data, q)
         current = data.oMf[fid]
         d = target_p - current.translation
         pos_err = math.sqrt(float(d @ d))
+        ori_err = 0.0
         if position_only:
             if pos_err < pos_tol:
                 return IkSolution(q, pos_err, _angle(current, target), it, True)
@@ -134,9 +142,13 @@ def solve_ik(panda: PandaModel, goal: Goal, q0: np.ndarray, config: IkConfig, fr
             err_se3 = current.actInv(target)  # target seen from the current frame
             err = pin.log6(err_se3).vector  # (linear, angular); |angular| is the rotation angle to the target
             w = err[3:]
-            if pos_err < pos_tol and math.sqrt(float(w @ w)) < ori_tol:
+            ori_err = math.sqrt(float(w @ w))
+            if pos_err < pos_tol and ori_err < ori_tol:
                 return IkSolution(q, pos_err, _angle(current, target), it, True)
-        if it == config.max_iters:
+        if pos_err < 0.99 * best_pos or ori_err < 0.99 * best_ori:
+            best_it = it
+        best_pos, best_ori = min(best_pos, pos_err), min(best_ori, ori_err)
+        if it == config.max_iters or (config.stall_iters and it - best_it >= config.stall_iters):
             break
         if position_only:
             err = d
@@ -148,7 +160,7 @@ def solve_ik(panda: PandaModel, goal: Goal, q0: np.ndarray, config: IkConfig, fr
         if biggest > config.max_step_rad:
             dq *= config.max_step_rad / biggest
         q = np.minimum(np.maximum(q + dq, Q_MIN), Q_MAX)
-    return IkSolution(q, pos_err, _angle(data.oMf[fid], target), config.max_iters, False)
+    return IkSolution(q, pos_err, _angle(data.oMf[fid], target), it, False)
 
 
 def _angle(current: pin.SE3, target: pin.SE3) -> float:

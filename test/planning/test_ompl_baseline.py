@@ -116,6 +116,25 @@ def test_ik_finds_distinct_valid_solutions_that_reach_the_goal(rng):
         assert all(g >= IkConfig().min_separation_rad for g in gaps)
 
 
+def test_ik_stall_gives_up_on_an_unreachable_pose_and_keeps_reachable_ones(rng):
+    panda = load_panda()
+    far = Goal(np.array([2.0, 0.0, 0.5]), np.eye(3))  # 2 m away: beyond the arm's reach
+    full = solve_ik(panda, far, Q_READY, IkConfig(max_iters=100))
+    stalled = solve_ik(panda, far, Q_READY, IkConfig(max_iters=100, stall_iters=5))
+    assert not full.converged and full.iterations == 100
+    assert not stalled.converged and stalled.iterations < 100
+    for q_true in FeasibleSampler(rng).sample(10):
+        tf = panda.fk(q_true)
+        goal = Goal(tf.translation.copy(), tf.rotation.copy())
+        q0 = np.clip(q_true + rng.uniform(-0.3, 0.3, 7), Q_MIN, Q_MAX)
+        plain = solve_ik(panda, goal, q0, IkConfig(max_iters=100, max_step_rad=0.3))
+        early = solve_ik(panda, goal, q0, IkConfig(max_iters=100, max_step_rad=0.3, stall_iters=12))
+        assert early.converged == plain.converged  # a seed still making progress is not cut short
+        np.testing.assert_array_equal(early.q, plain.q)
+    with pytest.raises(ValueError, match="stall_iters"):
+        IkConfig(stall_iters=-1)
+
+
 def test_densify_bounds_the_joint_step():
     q = np.array([np.zeros(7), np.full(7, 0.5), np.full(7, 0.5)])
     dense = densify(q, 0.05)
