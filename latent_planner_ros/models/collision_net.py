@@ -54,11 +54,15 @@ class CollisionNet(nn.Module):
         """Whether the classifier takes the VAE latent z (config.latent > 0)."""
         return self.config.latent > 0
 
-    def link_inputs(self, grid: torch.Tensor, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
+    def link_inputs(
+        self, grid: torch.Tensor, q: torch.Tensor, z: torch.Tensor, poses: torch.Tensor | None = None
+    ) -> torch.Tensor:
         """Per-link classifier inputs (S, M, L, D) for grids (S, C, nx, ny, nz), q (S, M, 7) [rad], z (S, M, latent)
-        (ignored, and may be None, when the network does not read z)."""
+        (ignored, and may be None, when the network does not read z); poses (S, M, L, 4, 4) [m]: the link poses
+        of q (LABEL_LINKS) if already computed, else this network's FK computes them."""
         s, m = q.shape[:2]
-        poses = self.fk(q.reshape(-1, 7).to(self.link_points.dtype)).reshape(s, m, self.n_links, 4, 4)
+        if poses is None:
+            poses = self.fk(q.reshape(-1, 7).to(self.link_points.dtype)).reshape(s, m, self.n_links, 4, 4)
         rot, pos = poses[..., :3, :3], poses[..., :3, 3]
         pts = torch.einsum("smlij,lkj->smlki", rot, self.link_points) + pos[..., None, :]  # (S, M, L, K, 3)
         norm = (pts - self.centre) / self.half_extent  # [-1, 1] over the bounds (align_corners=False convention)
@@ -90,9 +94,12 @@ class CollisionNet(nn.Module):
         with torch.no_grad():
             return self.classifier(x).squeeze(-1)
 
-    def link_logits(self, grid: torch.Tensor, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
-        """Per-link collision logits (S, M, L) for grids (S, C, nx, ny, nz), q (S, M, 7) [rad], z (S, M, latent)."""
-        return self.classifier(self.link_inputs(grid, q, z)).squeeze(-1)
+    def link_logits(
+        self, grid: torch.Tensor, q: torch.Tensor, z: torch.Tensor, poses: torch.Tensor | None = None
+    ) -> torch.Tensor:
+        """Per-link collision logits (S, M, L) for grids (S, C, nx, ny, nz), q (S, M, 7) [rad], z (S, M, latent)
+        (and the link poses (S, M, L, 4, 4) [m] of q, if known: see link_inputs)."""
+        return self.classifier(self.link_inputs(grid, q, z, poses)).squeeze(-1)
 
     def combine(self, link_logits: torch.Tensor) -> torch.Tensor:
         """Global collision logit (...) from per-link logits (..., L)."""

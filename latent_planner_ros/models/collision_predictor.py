@@ -68,12 +68,16 @@ class CollisionPredictor:
         """Rebuild an embedding received as voxel centres (V, 3) and features (V, C); ValueError if off-grid."""
         return SceneEmbedding.from_points(centres, features, self.net.config.encoder)
 
-    def link_logits_q(self, embedding: SceneEmbedding, q: torch.Tensor, z: torch.Tensor | None) -> torch.Tensor:
+    def link_logits_q(
+        self, embedding: SceneEmbedding, q: torch.Tensor, z: torch.Tensor | None, poses: torch.Tensor | None = None
+    ) -> torch.Tensor:
         """Per-link logits (B, L) for configurations q (B, 7) [rad] with their latents z (B, latent) (None: the
-        posterior means of q, computed only if the network reads z)."""
+        posterior means of q, computed only if the network reads z); poses (B, L, 4, 4) [m]: the link poses of q
+        if already computed (else the network's FK)."""
         if z is None:
             z = self.latent_of(q)
-        return self.net.link_logits(embedding.features.to(q.dtype)[None], q[None], z[None])[0]
+        grid = embedding.features.to(q.dtype)[None]
+        return self.net.link_logits(grid, q[None], z[None], None if poses is None else poses[None])[0]
 
     def latent_of(self, q: torch.Tensor) -> torch.Tensor:
         """The VAE posterior means (B, latent) of configurations q (B, 7) [rad], or (B, 0) for a network that

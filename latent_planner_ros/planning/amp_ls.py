@@ -78,13 +78,29 @@ class AmpLs(PlanAdditions):
         self.clock = PlanClock()  # where `plan`'s time goes (PlanResult.timings)
 
     # -- shared pieces -----------------------------------------------------------------------------
-    def _pose(self, z: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """Decoded q (B, 7), TCP position (B, 3) and 6D orientation (B, 6) used by the target losses."""
-        dec = self.vae.decode(z)
-        if self.config.target_on_fk and self.vae.config.decoder != "kinematic":
-            x = robot_state(dec.q, self.vae.fk)
-            return dec.q, x[:, 7:10], x[:, 10:16]
-        return dec.q, dec.pos, dec.rot6d
+    def _decode(self, z: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Decoded q (B, 7), TCP position (B, 3) and 6D orientation (B, 6) used by the target losses, and
+        p(collision) (B,), all differentiable in z (B, L). With the kinematic decoder, one FK of every link frame
+        gives the TCP pose and, to a backend that takes link frames (the learned one), the collision network's
+        link poses."""
+        cfg = self.config
+        frames = None
+        if self.vae.config.decoder == "kinematic":
+            q = self.vae.decode_q(z)
+            frames = self.vae.fk(q)  # (B, len(LINK_FRAMES), 4, 4)
+            tcp = frames[:, self.vae.fk.ee_index]
+            pos, ori = tcp[:, :3, 3], matrix_to_rot6d(tcp[:, :3, :3])
+        else:
+            dec = self.vae.decode(z)
+            q, pos, ori = dec.q, dec.pos, dec.rot6d
+            if cfg.target_on_fk:
+                x = robot_state(q, self.vae.fk)
+                pos, ori = x[:, 7:10], x[:, 10:16]
+        if not cfg.use_collision:
+            return q, pos, ori, torch.zeros(len(q), dtype=z.dtype)
+        if frames is not None and getattr(self.backend, "takes_frames", False):
+            return q, pos, ori, self.backend.p_collision(q, z, frames=frames)
+        return q, pos, ori, self.backend.p_collision(q, z)
 
     def _errors(self, pos: torch.Tensor, rot6d: torch.Tensor, goal: Goal) -> tuple[np.ndarray, np.ndarray]:
         target_r = torch.as_tensor(goal.rotation, dtype=pos.dtype)
@@ -102,8 +118,7 @@ class AmpLs(PlanAdditions):
         """
         cfg = self.config
         events = {"accepted": [], "reached": [], "backtraced": [], "rejected": []}
-        q, pos, ori = self._pose(s.z)
-        p_col = self.backend.p_collision(q, s.z) if cfg.use_collision else torch.zeros(len(q))
+        q, pos, ori, p_col = self._decode(s.z)
         pos_err, ori_err = self._errors(pos, ori, goal)
         if accept:
             q_np, p_np = q.detach().double().numpy(), p_col.detach().numpy()
@@ -115,8 +130,7 @@ class AmpLs(PlanAdditions):
                 events["pos_err"], events["ori_err"], events["p_col"] = pos_err, ori_err, p_col.detach().numpy()
                 return events
             if events["backtraced"]:
-                q, pos, ori = self._pose(s.z)
-                p_col = self.backend.p_collision(q, s.z) if cfg.use_collision else torch.zeros(len(q))
+                q, pos, ori, p_col = self._decode(s.z)
         target_pos = torch.as_tensor(goal.position, dtype=pos.dtype)
         target_ori = matrix_to_rot6d(torch.as_tensor(goal.rotation, dtype=pos.dtype))
         l_pos = (pos - target_pos).norm(dim=-1)

@@ -86,9 +86,13 @@ class LearnedBackend:
         return self.predictor.embedding_from_points(centres, features)
 
     # -- queries ----------------------------------------------------------------------------------
-    def p_collision(self, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
-        """p(collision) (B,) of decoded configurations q (B, 7) with their latents z (B, L); differentiable."""
-        logits = self.predictor.link_logits_q(self.embedding, q.float(), z.float())
+    takes_frames = True  # p_collision accepts the link frames of q (AmpLs shares its FK with the network)
+
+    def p_collision(self, q: torch.Tensor, z: torch.Tensor, frames: torch.Tensor | None = None) -> torch.Tensor:
+        """p(collision) (B,) of decoded configurations q (B, 7) with their latents z (B, L); differentiable.
+        frames: the poses (B, len(LINK_FRAMES), 4, 4) [m] of q's link frames if already computed (TorchFK)."""
+        poses = None if frames is None else frames[:, self._label_frames].float()
+        logits = self.predictor.link_logits_q(self.embedding, q.float(), z.float(), poses)
         return torch.sigmoid(self.predictor.net.combine(logits)).to(z.dtype)
 
     def check(self, q: np.ndarray) -> np.ndarray:

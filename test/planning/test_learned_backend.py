@@ -130,3 +130,19 @@ def test_the_default_backend_loads_the_distilled_planning_predictor_and_a_stem_o
     assert planning.predictor.net.config.hidden == expected.config.hidden
     full = LearnedBackend.load(shipped_collision_path(DEFAULT_COLLISION))
     assert full.predictor.net.config.hidden != planning.predictor.net.config.hidden
+
+
+def test_p_collision_from_shared_link_frames_equals_the_networks_own_fk(rng):
+    backend = LearnedBackend.load()
+    assert backend.takes_frames
+    backend.set_scene(rng.uniform([0.3, -0.3, 0.0], [0.6, 0.3, 0.5], size=(800, 3)), np.array([1.5, 0.0, 1.0]))
+    vae = backend.predictor.vae
+    z = torch.randn(8, vae.config.latent, generator=torch.Generator().manual_seed(0), requires_grad=True)
+    q = vae.decode_q(z)
+    shared = backend.p_collision(q, z, frames=vae.fk(q))
+    own = backend.p_collision(q, z)
+    torch.testing.assert_close(shared, own)
+    (g_shared,) = torch.autograd.grad(shared.sum(), z, retain_graph=True)
+    (g_own,) = torch.autograd.grad(own.sum(), z)
+    assert g_own.abs().max() > 0
+    torch.testing.assert_close(g_shared, g_own)
