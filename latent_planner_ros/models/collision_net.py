@@ -15,7 +15,7 @@ from latent_planner_ros.data.link_geometry import LABEL_LINKS, link_geometry
 from latent_planner_ros.models import trilinear
 from latent_planner_ros.models.collision_net_config import CollisionNetConfig
 from latent_planner_ros.models.scene_encoder import SceneEncoder
-from latent_planner_ros.robot.rotations import matrix_to_rot6d
+from latent_planner_ros.robot.rotations import matrix_to_rot6d, matrix_to_rot6d_np
 from latent_planner_ros.robot.torch_fk import TorchFK
 
 
@@ -88,7 +88,7 @@ class CollisionNet(nn.Module):
         norm = (pts - self._centre_np) / self._half_np
         cells = ((norm + 1.0) * np.asarray(enc.grid_shape) - 1.0) / 2.0  # grid_sample's align_corners=False
         feats = trilinear.sample(table, enc.grid_shape, cells.reshape(-1, 3)).reshape(m, n_links, -1)
-        rot6d = np.concatenate([rot[..., :, 0], rot[..., :, 1]], -1)  # matrix_to_rot6d
+        rot6d = matrix_to_rot6d_np(rot)
         geometry = torch.from_numpy(np.concatenate([norm.reshape(m, n_links, -1), rot6d], -1).astype(np.float32))
         x = torch.cat([feats, geometry, self.one_hot.expand(m, -1, -1)], -1)
         with torch.no_grad():

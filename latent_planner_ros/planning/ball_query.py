@@ -64,7 +64,7 @@ class BallQuery:
         centres = np.asarray(centres, dtype=float).reshape(-1, 3)
         radii = np.broadcast_to(np.asarray(radii, dtype=float), (len(centres),))
         ct = np.ascontiguousarray(centres.T)  # (3, M): every operation below runs along M (numpy is slow on rows of 3)
-        hit = ~np.isfinite(ct[0] + ct[1] + ct[2])
+        hit = ~np.isfinite(ct).all(axis=0)
         if not len(self.cloud) or not len(centres):
             return hit
         if hit.any():

@@ -99,10 +99,7 @@ class GeometricBackend:
     def check(self, q: np.ndarray) -> np.ndarray:
         """Hard decision (M,) bool for q (M, 7) [rad]: an observed point closer than radius + check_margin to the
         centre of one of the arm's spheres."""
-        q = np.atleast_2d(q)
-        if not len(self.cloud):
-            return np.zeros(len(q), dtype=bool)
-        return self.check_frames(self._fk.frames_np(q))
+        return self.check_frames(self._fk.frames_np(np.atleast_2d(q)))
 
     def check_frames(self, frames: np.ndarray) -> np.ndarray:
         """`check` from the link frames (M, len(LINK_FRAMES), 4, 4) [m] of the configurations (TorchFK.frames_np),
