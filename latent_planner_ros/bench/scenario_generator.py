@@ -134,7 +134,9 @@ def generate_problem(index: int, config: GeneratorConfig, max_scenes: int = 200)
                     goal_quaternion_xyzw=matrix_to_quat(rot[b]),
                     obstacles=obstacles,
                     goal_q=free[b],
-                    camera=CameraSpec(tuple(camera[:3, 3].tolist()), tuple(target.tolist()), int(rng.integers(2**31))),
+                    cameras=(
+                        CameraSpec(tuple(camera[:3, 3].tolist()), tuple(target.tolist()), int(rng.integers(2**31))),
+                    ),
                 )
             if tried > config.pairs_per_scene:
                 break

@@ -12,14 +12,18 @@ Schema (frame `world` = `panda_link0`, table top at z = 0, lengths in metres, an
         "goal_q": [7],                      # optional: a configuration reaching the goal (never given to planners)
         "obstacles": [...],                 # the TRUE geometry (data/obstacles.py schema), used to render the
                                             # cloud and to check results; planners never see it
-        "camera": {"eye": [3], "target": [3], "seed": int}   # optional viewpoint and depth-noise seed
+        "camera": {"eye": [3], "target": [3], "seed": int},  # optional viewpoint and depth-noise seed
+        "cameras": [{"eye": [3], "target": [3], "seed": int}, ...],  # optional, instead of "camera":
+                                            # several views whose clouds are fused in `world`
+        "family": str,                      # optional scene family, for per-family reports ("bookshelf", ...)
+        "inside": bool                      # optional: the goal lies inside furniture (a shelf slot, a bin)
        }, ...]}
 
 Obstacles: {"type": "box", "position", "quaternion_xyzw", "half_extents"} | {"type": "cylinder", "position",
 "quaternion_xyzw", "radius", "half_length"} | {"type": "sphere", "position", "radius"} | {"type": "capsule",
 ... as cylinder} | {"type": "mesh", "vertices", "faces"}; "quaternion_xyzw" defaults to identity; each may carry
-a "name". Without a camera the harness draws a viewpoint from the default camera ranges, seeded by the problem's
-index, so every run of a set sees the same clouds.
+a "name". Without a camera (neither "camera" nor "cameras") the harness draws a viewpoint from the default
+camera ranges, seeded by the problem's index, so every run of a set sees the same clouds.
 
 A malformed file raises ScenarioError naming the file and the field, e.g.
 ``tabletop.json: problems[3].goal.quaternion_xyzw: must be 4 finite numbers, got [0, 0, 1]``.
@@ -82,7 +86,9 @@ class ScenarioProblem:
         goal_quaternion_xyzw: (4,) TCP target orientation (unit quaternion).
         obstacles: the true obstacle geometry.
         goal_q: (7,) a configuration reaching the goal, or None.
-        camera: a fixed viewpoint, or None (drawn from the default camera ranges).
+        cameras: fixed viewpoints whose clouds are fused; empty = one drawn from the default camera ranges.
+        family: the scene family ("" = unnamed), for per-family reports.
+        inside: the goal lies inside furniture (a shelf slot, a bin).
     """
 
     start: np.ndarray
@@ -90,7 +96,22 @@ class ScenarioProblem:
     goal_quaternion_xyzw: np.ndarray
     obstacles: tuple[Obstacle, ...] = ()
     goal_q: np.ndarray | None = None
-    camera: CameraSpec | None = None
+    cameras: tuple[CameraSpec, ...] = ()
+    family: str = ""
+    inside: bool = False
+
+    def __post_init__(self):
+        if isinstance(self.cameras, CameraSpec):  # a single view passed positionally, as before
+            object.__setattr__(self, "cameras", (self.cameras,))
+        elif self.cameras is None:
+            object.__setattr__(self, "cameras", ())
+        else:
+            object.__setattr__(self, "cameras", tuple(self.cameras))
+
+    @property
+    def camera(self) -> CameraSpec | None:
+        """The first fixed viewpoint, or None."""
+        return self.cameras[0] if self.cameras else None
 
     @property
     def scene(self) -> Scene:
@@ -110,10 +131,21 @@ class ScenarioProblem:
         if self.goal_q is not None:
             out["goal_q"] = r(self.goal_q)
         out["obstacles"] = [round_obstacle(obstacle_to_dict(o), digits) for o in self.obstacles]
-        if self.camera is not None:
-            out["camera"] = {"eye": r(self.camera.eye), "target": r(self.camera.target)}
-            if self.camera.seed is not None:
-                out["camera"]["seed"] = int(self.camera.seed)
+
+        def view(c: CameraSpec) -> dict:
+            v: dict[str, Any] = {"eye": r(c.eye), "target": r(c.target)}
+            if c.seed is not None:
+                v["seed"] = int(c.seed)
+            return v
+
+        if len(self.cameras) == 1:
+            out["camera"] = view(self.cameras[0])
+        elif self.cameras:
+            out["cameras"] = [view(c) for c in self.cameras]
+        if self.family:
+            out["family"] = self.family
+        if self.inside:
+            out["inside"] = True
         return out
 
 
@@ -220,7 +252,7 @@ def problem_from_dict(d: Any, where: str = "problem") -> ScenarioProblem:
     """Parse one problem dict; raises ScenarioError naming the field (prefixed by `where`)."""
     if not isinstance(d, dict):
         raise ScenarioError(f"{where}: must be an object, got {type(d).__name__}")
-    _no_extra_keys(d, {"start", "goal", "goal_q", "obstacles", "camera", "name"}, where)
+    _no_extra_keys(d, {"start", "goal", "goal_q", "obstacles", "camera", "cameras", "name", "family", "inside"}, where)
     start = _configuration(d, "start", where)
     goal = d.get("goal")
     if not isinstance(goal, dict):
@@ -236,8 +268,31 @@ def problem_from_dict(d: Any, where: str = "problem") -> ScenarioProblem:
     if not isinstance(obstacles, list):
         raise ScenarioError(f"{where}.obstacles: must be a list, got {type(obstacles).__name__}")
     parsed = tuple(_obstacle(o, f"{where}.obstacles[{j}]") for j, o in enumerate(obstacles))
-    camera = _camera(d["camera"], f"{where}.camera") if d.get("camera") is not None else None
-    return ScenarioProblem(start, position, quat / norm, parsed, goal_q, camera)
+    return ScenarioProblem(start, position, quat / norm, parsed, goal_q, _cameras(d, where), *_labels(d, where))
+
+
+def _cameras(d: dict, where: str) -> tuple[CameraSpec, ...]:
+    """The problem's "camera" (one view) or "cameras" (a non-empty list), not both."""
+    if d.get("camera") is not None and d.get("cameras") is not None:
+        raise ScenarioError(f"{where}: give either 'camera' or 'cameras', not both")
+    if d.get("camera") is not None:
+        return (_camera(d["camera"], f"{where}.camera"),)
+    views = d.get("cameras")
+    if views is None:
+        return ()
+    if not isinstance(views, list) or not views:
+        raise ScenarioError(f"{where}.cameras: must be a non-empty list of {{eye, target, seed}}, got {views!r}")
+    return tuple(_camera(v, f"{where}.cameras[{i}]") for i, v in enumerate(views))
+
+
+def _labels(d: dict, where: str) -> tuple[str, bool]:
+    """The problem's optional "family" (a string) and "inside" (a bool)."""
+    family, inside = d.get("family", ""), d.get("inside", False)
+    if not isinstance(family, str):
+        raise ScenarioError(f"{where}.family: must be a string, got {family!r}")
+    if not isinstance(inside, bool):
+        raise ScenarioError(f"{where}.inside: must be true or false, got {inside!r}")
+    return family, inside
 
 
 def set_from_dict(d: Any, source: str = "scenario set") -> ScenarioSet:

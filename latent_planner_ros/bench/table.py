@@ -42,21 +42,35 @@ CLOUD_SEED = 9000
 def problem_cloud(
     problem: ScenarioProblem, index: int, table: bool, camera: CameraConfig | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The point cloud (N, 3) float32 [m] in `world` a depth camera sees of the problem's true obstacles, cropped
-    to the sim camera's box (`planning_crop`: up to the arm's reach), and the camera's optical centre (3,) [m].
+    """The point cloud (N, 3) float32 [m] in `world` the problem's depth cameras see of its true obstacles, each
+    view cropped to the sim camera's box (`planning_crop`: the arm's reach) and the views fused, and where each
+    point was seen from: the optical centre (3,) [m] of a single camera, or (N, 3) float32, one per point, when
+    the problem has several cameras.
 
-    The viewpoint is the problem's camera, else drawn from the camera ranges with a seed from `index`;
-    the depth noise is seeded by the camera's seed (else `index`), so the cloud is the same on every run.
+    The viewpoints are the problem's cameras, else one drawn from the camera ranges with a seed from `index`;
+    each view's depth noise is seeded by its camera's seed (else `index`), so the cloud is the same on every run.
     """
+    cfg = camera or CameraConfig()
+    if not problem.cameras:
+        rng = np.random.default_rng(np.random.SeedSequence([CLOUD_SEED, index]))
+        return _view_cloud(problem, table, cfg, sample_camera_pose(rng, cfg), rng)
+    views = []
+    for spec in problem.cameras:
+        rng = np.random.default_rng(index if spec.seed is None else spec.seed)
+        views.append(_view_cloud(problem, table, cfg, spec.pose(), rng))
+    if len(views) == 1:
+        return views[0]
+    cloud = np.concatenate([v[0] for v in views]).astype(np.float32)
+    origins = np.concatenate([np.repeat(v[1][None].astype(np.float32), len(v[0]), 0) for v in views])
+    return cloud, origins.reshape(-1, 3)
+
+
+def _view_cloud(
+    problem: ScenarioProblem, table: bool, cfg: CameraConfig, pose: np.ndarray, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """The cropped cloud (N, 3) float32 [m] of one view from camera-to-world `pose` (4, 4), and its eye (3,)."""
     from latent_planner_ros.data.render import add_depth_noise, crop, depth_to_points, render_depth
 
-    cfg = camera or CameraConfig()
-    if problem.camera is not None:
-        pose = problem.camera.pose()
-        rng = np.random.default_rng(index if problem.camera.seed is None else problem.camera.seed)
-    else:
-        rng = np.random.default_rng(np.random.SeedSequence([CLOUD_SEED, index]))
-        pose = sample_camera_pose(rng, cfg)
     if not problem.obstacles and not table:
         return np.zeros((0, 3), dtype=np.float32), pose[:3, 3].copy()
     depth = render_depth(problem.scene, pose, cfg.intrinsics, table=table)
@@ -154,6 +168,8 @@ class TableRunner:
                 {
                     "problem": index,
                     "planner": name,
+                    "family": problem.family or "unnamed",
+                    "inside": bool(problem.inside),
                     "success": bool(result.success and verdict.reached and not verdict.collision),
                     "claimed": bool(result.success),
                     "reached": bool(verdict.reached),
@@ -168,6 +184,7 @@ class TableRunner:
                     "start_goal_distance_m": distance,
                     "states_checked": verdict.states_checked,
                     "cloud_points": len(cloud),
+                    "cameras": max(1, len(problem.cameras)),
                     "timings": {k: float(v) for k, v in result.timings.items()},
                     "checked_states": int(result.info.get("checked_states", -1)),
                 }

@@ -53,10 +53,37 @@ def summarise(rows: list[dict], names: list[str]) -> dict:
             "speedup_vs_rrtconnect": None,
             "time_split_ms": time_split(mine),
         }
+        out[name]["families"] = breakdown(mine)
     ref = out.get("rrtconnect", {}).get("time_median_s")
     for s in out.values():
         if ref and s["time_median_s"]:
             s["speedup_vs_rrtconnect"] = ref / s["time_median_s"]
+    return out
+
+
+def breakdown(rows: list[dict]) -> dict:
+    """One planner's rows per scene family, and over the problems whose goal lies inside furniture (key
+    "inside goals"): {group: {n, successes, success, success_ci95, time_median_s, unsafe}}; empty when the rows
+    have a single family and no inside goal (a plain tabletop set)."""
+    groups: dict[str, list[dict]] = {}
+    for r in rows:
+        groups.setdefault(r.get("family", "unnamed"), []).append(r)
+    inside = [r for r in rows if r.get("inside")]
+    if len(groups) < 2 and not inside:
+        return {}
+    if inside:
+        groups["inside goals"] = inside
+    out = {}
+    for group, mine in sorted(groups.items()):
+        n, k = len(mine), sum(r["success"] for r in mine)
+        out[group] = {
+            "n": n,
+            "successes": k,
+            "success": k / n,
+            "success_ci95": list(wilson_ci95(k, n)),
+            "time_median_s": _median([r["time_s"] for r in mine]),
+            "unsafe": sum(r["claimed"] and bool(r["collision"]) for r in mine),
+        }
     return out
 
 
@@ -126,6 +153,7 @@ def markdown(results: dict) -> str:
             f"| {_fmt(r['ee_path_median_m'])} | {_fmt(speed, '.1f')}{'x' if speed else ''} | {r['unsafe']} "
             f"| {seed_txt} |"
         )
+    lines += _family_lines(results["planners"])
     lines += _split_lines(results["planners"])
     lines += ["", "Rows:", ""]
     for name in results["planners"]:
@@ -144,6 +172,33 @@ def markdown(results: dict) -> str:
     if results.get("notes"):
         lines += ["", "Notes:", *[f"- {n}" for n in results["notes"]]]
     return "\n".join(lines)
+
+
+def _family_lines(planners: dict) -> list[str]:
+    """Markdown lines: success / median time / unsafe plans per scene family (and over inside goals)."""
+    groups = sorted({g for r in planners.values() for g in r.get("families", {})})
+    if not groups:
+        return []
+    lines = [
+        "",
+        "Per scene family: success (successes/problems), median planning time [s], unsafe plans; the row "
+        "`inside goals` counts the problems whose goal lies inside furniture (a shelf slot, a bin):",
+        "",
+        "| planner | " + " | ".join(f"`{g}`" for g in groups) + " |",
+        "|---|" + "---|" * len(groups),
+    ]
+    for name, r in planners.items():
+        cells = []
+        for g in groups:
+            f = r.get("families", {}).get(g)
+            cells.append(
+                ""
+                if f is None
+                else f"{f['success']:.2f} ({f['successes']}/{f['n']}), "
+                f"{_fmt(f['time_median_s'], '.3f')} s, {f['unsafe']} unsafe"
+            )
+        lines.append(f"| `{name}` | " + " | ".join(cells) + " |")
+    return lines
 
 
 def _split_lines(planners: dict) -> list[str]:
@@ -215,4 +270,26 @@ def figures(results: dict, rows: list[dict]) -> dict:
         ax.set(ylabel=ylabel, yscale="log" if log else "linear")
         ax.grid(alpha=0.3, axis="y")
         figs[key] = fig
+    families = sorted({g for n in names for g in stats[n].get("families", {})})
+    if families:
+        figs["families"] = _family_figure(names, stats, families, colours)
     return figs
+
+
+def _family_figure(names: list[str], stats: dict, families: list[str], colours: dict):
+    """Grouped bars: success (95 % CI) of every planner in every scene family."""
+    fig, ax = plt.subplots(figsize=(max(7, 1.1 * len(families) * max(1, len(names)) / 3), 4.2))
+    width = 0.8 / max(1, len(names))
+    palette = plt.get_cmap("tab20").colors
+    for k, n in enumerate(names):
+        fam = stats[n].get("families", {})
+        x = np.arange(len(families)) + (k - (len(names) - 1) / 2) * width
+        succ = np.array([fam[g]["success"] if g in fam else np.nan for g in families])
+        ci = np.array([fam[g]["success_ci95"] if g in fam else [np.nan, np.nan] for g in families])
+        ax.bar(x, succ, width, yerr=[succ - ci[:, 0], ci[:, 1] - succ], capsize=2, label=n,
+               color=palette[k % len(palette)])  # fmt: skip
+    ax.set_xticks(np.arange(len(families)), families, rotation=20, ha="right")
+    ax.set(ylabel="success rate (95 % CI)", ylim=(0, 1.05), title="success per scene family")
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize=7, ncol=2, loc="lower left")
+    return fig

@@ -106,6 +106,14 @@ P = ("problems", 0)
         ((*P, "obstacles", 2, "center"), [0, 0, 0], "problems[0].obstacles[2]: unknown field"),
         ((*P, "obstacles", 3, "faces"), [[0, 1, 9]] * 4, "problems[0].obstacles[3].faces"),
         ((*P, "camera"), {"eye": [1, 0, 1]}, "problems[0].camera.target"),
+        ((*P, "cameras"), [], "problems[0].cameras"),
+        (
+            (*P, "cameras"),
+            [{"eye": [1, 0, 1], "target": [0, 0, 0]}, {"eye": [1, 0, 1]}],
+            "problems[0].cameras[1].target",
+        ),
+        ((*P, "family"), 3, "problems[0].family"),
+        ((*P, "inside"), "yes", "problems[0].inside"),
     ],
 )
 def test_bad_files_are_refused_naming_the_field(path, value, named, tmp_path):
@@ -175,10 +183,54 @@ def test_the_harness_cloud_reaches_as_high_as_the_arm():
         goal_position=np.array([0.5, 0.0, 0.3]),
         goal_quaternion_xyzw=np.array([1.0, 0.0, 0.0, 0.0]),
         obstacles=(board,),
-        camera=CameraSpec(eye=(1.5, 0.3, 1.6), target=(0.5, 0.0, 0.3), seed=0),
+        cameras=(CameraSpec(eye=(1.5, 0.3, 1.6), target=(0.5, 0.0, 0.3), seed=0),),
     )
     cloud, origin = problem_cloud(problem, 0, table=True)
     on_board = np.abs(cloud[:, 2] - 1.06) < 0.01
     assert on_board.sum() > 50 and CameraConfig().crop_max[2] < 1.05 < planning_crop()[1][2]
     low, high = (np.asarray(c) for c in planning_crop())
     assert np.all(cloud >= low - 1e-6) and np.all(cloud <= high + 1e-6)
+
+
+def test_several_cameras_round_trip_and_one_stays_camera(tmp_path):
+    d = _valid()
+    views = [
+        {"eye": [1.5, 0.3, 1.6], "target": [0.5, 0.0, 0.3], "seed": 1},
+        {"eye": [0.2, 1.2, 1.0], "target": [0.5, 0, 0]},
+    ]
+    d["problems"][0].update(cameras=views, family="bookshelf", inside=True)
+    s = set_from_dict(d)
+    p = s.problems[0]
+    assert len(p.cameras) == 2 and p.camera == p.cameras[0] and p.family == "bookshelf" and p.inside
+    back = save_scenarios(s, tmp_path / "s.json")
+    again = load_scenarios(back).problems[0]
+    assert again.cameras == p.cameras and again.family == "bookshelf" and again.inside
+    out = again.to_dict()
+    assert "camera" not in out and len(out["cameras"]) == 2
+    one = set_from_dict(_valid() | {"problems": [_valid()["problems"][0] | {"cameras": views[:1]}]})
+    assert "camera" in one.problems[0].to_dict() and "family" not in one.problems[0].to_dict()
+    d["problems"][0]["camera"] = views[0]
+    with pytest.raises(ScenarioError, match="either 'camera' or 'cameras'"):
+        set_from_dict(d)
+
+
+def test_the_harness_fuses_every_camera_with_one_origin_per_point():
+    from latent_planner_ros.bench.table import problem_cloud
+    from latent_planner_ros.data.obstacles import Box
+
+    box = Box((0.5, 0.0, 0.2), (0.0, 0.0, 0.0, 1.0), (0.1, 0.1, 0.2))
+    front, side = CameraSpec((1.6, 0.0, 0.6), (0.5, 0.0, 0.2), 3), CameraSpec((0.5, 1.4, 0.6), (0.5, 0.0, 0.2), 4)
+
+    def make(cams):
+        return ScenarioProblem(np.zeros(7), np.array([0.4, 0, 0.5]), np.array([1.0, 0, 0, 0]), (box,), None, cams)
+
+    one, eye = problem_cloud(make((front,)), 0, table=False)
+    both, origins = problem_cloud(make((front, side)), 0, table=False)
+    assert eye.shape == (3,) and origins.shape == both.shape
+    assert len(both) > len(one) and np.allclose(both[: len(one)], one)  # the first view is unchanged
+    from_side = np.all(np.isclose(origins, side.eye), axis=1)
+    assert from_side.sum() == len(both) - len(one) and np.all(np.isclose(origins[~from_side], front.eye))
+    # every point lies on the box's surface within the depth noise, and each camera sees its own face
+    local = np.abs(both - np.asarray(box.position)) - np.asarray(box.half_extents)
+    assert np.all(np.abs(local.max(axis=1)) < 0.02)
+    assert np.any(both[from_side, 1] > 0.095) and np.any(both[~from_side, 0] > 0.595)

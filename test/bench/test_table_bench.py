@@ -60,3 +60,23 @@ def test_bench_table_refuses_a_bad_set_and_unknown_planners(tmp_path, capsys):
     with pytest.raises(ValueError, match="rrt_connect"):
         parse_planners("amp_ls,rrt_connect", "learned")
     assert "amp_ls_geometric" not in parse_planners(None, "geometric")
+
+
+def test_the_report_breaks_success_down_per_family_and_inside_goals():
+    from latent_planner_ros.bench.table_report import markdown, summarise
+
+    def row(i, family, inside, ok):
+        reason = "" if ok else "no progress"
+        return {"problem": i, "planner": "amp_ls", "family": family, "inside": inside, "success": ok,
+                "claimed": ok, "reached": ok, "collision": None, "time_s": 0.01 * (i + 1), "reason": reason,
+                "path_len_norm": 1.2, "joint_path_rad": 1.0, "ee_path_m": 0.5, "timings": {}}  # fmt: skip
+
+    rows = [row(0, "bin", True, True), row(1, "bin", False, False), row(2, "cage", False, True)]
+    fam = summarise(rows, ["amp_ls"])["amp_ls"]["families"]
+    assert fam["bin"]["n"] == 2 and fam["bin"]["successes"] == 1 and fam["cage"]["success"] == 1.0
+    assert fam["inside goals"]["n"] == 1 and fam["inside goals"]["successes"] == 1
+    assert summarise([row(0, "unnamed", False, True)], ["amp_ls"])["amp_ls"]["families"] == {}
+    results = {"planners": summarise(rows, ["amp_ls"]), "scenarios": {"name": "w", "problems": 3, "problems_run": 3,
+               "table": True}, "backend": "learned", "tolerance": {"position_m": 0.01, "orientation_deg": 15.0},
+               "budgets": {}}  # fmt: skip
+    assert "| `amp_ls` | 0.50 (1/2)" in markdown(results) and "`inside goals`" in markdown(results)
