@@ -29,8 +29,9 @@ class CameraConfig:
         look_at: [m] (3,) the point the optical axis goes through (the image's up is world +z).
         min_depth, max_depth: [m] depth range; pixels outside are dropped.
         stride: keep every stride-th pixel row and column (decimation before unprojection).
-        crop_min, crop_max: [m] (3,) axis-aligned box in world; points outside are dropped. It reaches 1.2 m up
-            by default: the Panda reaches about 1.19 m above its base, so nothing the arm can hit is cropped away.
+        crop_min, crop_max: [m] (3,) axis-aligned box in world; points outside are dropped. By default it covers
+            the arm's reach all around its base (|x|, |y| <= 1 m) and 1.3 m up (the Panda reaches about 1.19 m
+            above its base), so nothing the arm can hit is cropped away.
         voxel_size: [m] voxel-grid downsampling (one point per occupied voxel, the mean); 0 = off.
         depth_noise: [m] standard deviation of Gaussian depth noise at 1 m depth (scales with depth^2,
             like a stereo camera); 0 = exact depth.
@@ -46,8 +47,8 @@ class CameraConfig:
     min_depth: float = 0.1
     max_depth: float = 3.0
     stride: int = 1
-    crop_min: Vec3 = (-0.1, -0.7, -0.02)
-    crop_max: Vec3 = (1.0, 0.7, 1.2)
+    crop_min: Vec3 = (-1.0, -1.0, -0.02)
+    crop_max: Vec3 = (1.0, 1.0, 1.3)
     voxel_size: float = 0.02
     depth_noise: float = 0.0
     dropout: float = 0.0

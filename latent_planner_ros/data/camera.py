@@ -80,8 +80,8 @@ class CameraConfig:
 
 def planning_crop() -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     """Lower and upper corner [m] in `world` of the box the benches crop the clouds they give the planners to: the
-    sim camera's (`camera.crop_min` / `crop_max` of config/sim.yaml), which reaches 1.2 m up, the arm's reach,
-    so no obstacle the arm can hit is cropped away. The collision network crops its own input to its smaller
+    sim camera's (`camera.crop_min` / `crop_max` of config/sim.yaml), which covers the arm's reach all around its
+    base, so no obstacle the arm can hit is cropped away. The collision network crops its own input to its smaller
     workspace box (its checkpoint's `grid`); the planners' geometric checks see the whole cloud."""
     from sim_bridge.camera_config import CameraConfig as SimCameraConfig
 
