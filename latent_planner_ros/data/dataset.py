@@ -23,7 +23,8 @@ from latent_planner_ros.data.labels import CollisionLabeler, link_poses
 from latent_planner_ros.data.link_geometry import LABEL_LINKS
 from latent_planner_ros.data.queries import QuerySamplerConfig, sample_query_indices
 from latent_planner_ros.data.scene import Scene
-from latent_planner_ros.data.scene_generator import SceneGeneratorConfig, generate_scene
+from latent_planner_ros.data.scene_families import generate_family_scene
+from latent_planner_ros.data.scene_generator import SceneGeneratorConfig
 from latent_planner_ros.data.shapes import SHAPES_VERSION
 from latent_planner_ros.robot.sampler import FeasibleSampler
 
@@ -35,7 +36,7 @@ class DatasetConfig:
     """What one shard holds and how it is generated."""
 
     family: str = "train"
-    """scene family ("train" or "heldout")"""
+    """scene family: "train" or "heldout" (tabletop), a workcell family, "workcell", "mix" (data/scene_families.py)"""
     scenes_per_shard: int = 25
     pool: int = 12_000
     """uniform feasible configurations kept per shard to draw queries from"""
@@ -66,7 +67,7 @@ def generate_shard(directory: Path, split: str, index: int, seed: int, config: D
     pool_poses = link_poses(pool)
     scenes, qs, labels, nears, scene_idx = [], [], [], [], []
     for k in range(config.scenes_per_shard):
-        scene = generate_scene(rng, config.family, config.scene, seed=index * 1000 + k)
+        scene = generate_family_scene(rng, config.family, config.scene, seed=index * 1000 + k)
         idx, near = sample_query_indices(scene, pool, rng, config.queries, pool_poses)
         labels.append(CollisionLabeler(scene).label_poses(pool_poses[idx]))
         scenes.append(scene)

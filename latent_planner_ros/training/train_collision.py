@@ -1,6 +1,7 @@
 """Train the collision predictor on procedurally generated tabletop scenes.
 
-    python -m latent_planner_ros train collision --generate N [--workers W]      # make N labelled training scenes
+    python -m latent_planner_ros train collision --generate N [--workers W] [--family F]  # N labelled scenes
+    python -m latent_planner_ros train collision --init STEM [--box-min X Y Z --box-max X Y Z] ...  # fine-tune
     python -m latent_planner_ros train collision [--minutes N] [--out DIR] [--vae STEM] [--resume]
     python -m latent_planner_ros train collision --grow STEM --box-max X Y Z --out DIR   # a larger box, no training
 
@@ -26,6 +27,7 @@ from tqdm import tqdm
 
 from latent_planner_ros.data.camera import CameraConfig
 from latent_planner_ros.data.dataset import CollisionData, DatasetConfig, generate_dataset
+from latent_planner_ros.data.scene_families import check_family
 from latent_planner_ros.models.checkpoint import CheckpointError, load_checkpoint
 from latent_planner_ros.models.collision_io import file_sha256
 from latent_planner_ros.models.collision_net_config import CollisionNetConfig
@@ -61,8 +63,19 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, TrainCollisionConfi
         help="write the collision checkpoint STEM over the box --box-min/--box-max (its weights, no training; "
         "models/collision_box.py) to OUT/best with its validation metrics, then exit",
     )
-    p.add_argument("--box-min", type=float, nargs=3, metavar=("X", "Y", "Z"), help="with --grow: lower corner [m]")
-    p.add_argument("--box-max", type=float, nargs=3, metavar=("X", "Y", "Z"), help="with --grow: upper corner [m]")
+    p.add_argument(
+        "--init",
+        type=Path,
+        metavar="STEM",
+        help="fine-tune the trained collision checkpoint STEM (its architecture and weights; over the box "
+        "--box-min/--box-max when given) instead of training a new network",
+    )
+    p.add_argument(
+        "--box-min", type=float, nargs=3, metavar=("X", "Y", "Z"), help="with --grow/--init: lower corner [m]"
+    )
+    p.add_argument(
+        "--box-max", type=float, nargs=3, metavar=("X", "Y", "Z"), help="with --grow/--init: upper corner [m]"
+    )
     p.add_argument(
         "--no-visibility",
         action="store_true",
@@ -83,16 +96,33 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, TrainCollisionConfi
     return args, config
 
 
-def validation_sets(root: Path, n_scenes: int, camera: CameraConfig) -> dict[str, EvalSet]:
-    """Validation scenes of both families (generated on first use under root/val_seen, root/val_unseen)."""
+def validation_sets(
+    root: Path, n_scenes: int, camera: CameraConfig, families: tuple[str, str] = ("train", "heldout")
+) -> dict[str, EvalSet]:
+    """Validation scenes of the seen and unseen families (generated on first use under root/val_seen and
+    root/val_unseen for the tabletop families, root/val_<name>_<family> for others)."""
     out = {}
-    for name, family in (("seen", "train"), ("unseen", "heldout")):
-        directory = root / f"val_{name}"
+    for name, family in zip(("seen", "unseen"), families, strict=True):
+        default = {"seen": "train", "unseen": "heldout"}[name] == family
+        directory = root / (f"val_{name}" if default else f"val_{name}_{family}")
         cfg = DatasetConfig(family=family, scenes_per_shard=VAL_SHARD)
         generate_dataset(directory, n_scenes, split=f"val_{name}", seed=VAL_SEED, config=cfg)
         data = CollisionData.load(directory, limit=-(-n_scenes // VAL_SHARD)).first(n_scenes)
         out[name] = EvalSet(data, seed=VAL_SEED, camera=camera)
     return out
+
+
+def initial_network(args: argparse.Namespace):
+    """The network of checkpoint args.init, grown to --box-min/--box-max if given (models/collision_box.py).
+    Raises CheckpointError (missing or bad checkpoint) or ValueError (a box it cannot grow to)."""
+    from latent_planner_ros.models.collision_box import grow_box
+    from latent_planner_ros.models.collision_io import load_collision_net
+
+    net, _ = load_collision_net(args.init)
+    enc = net.config.encoder
+    if args.box_min or args.box_max:
+        net = grow_box(net, args.box_min or enc.bounds_min, args.box_max or enc.bounds_max)
+    return net
 
 
 def vae_info(stem: Path) -> dict:
@@ -119,6 +149,14 @@ def train(args: argparse.Namespace, config: TrainCollisionConfig, argv: list[str
     net_config = CollisionNetConfig(
         encoder=SceneEncoderConfig(visibility=not args.no_visibility), latent=vae.config.latent
     )
+    init = None
+    if args.init is not None:
+        try:
+            init = initial_network(args)
+        except (CheckpointError, ValueError) as e:
+            print(f"train collision --init: {e}", file=sys.stderr)
+            return 2
+        net_config = init.config
     resume = args.resume and (args.out / "last.safetensors").exists()
     if resume:
         _, state = load_checkpoint(args.out / "last")
@@ -130,10 +168,17 @@ def train(args: argparse.Namespace, config: TrainCollisionConfig, argv: list[str
         net_config,
         vae,
         data,
-        validation_sets(Path(config.val_dir), config.val_scenes, box_camera(net_config)),
+        validation_sets(
+            Path(config.val_dir),
+            config.val_scenes,
+            box_camera(net_config),
+            (config.val_seen_family, config.val_unseen_family),
+        ),
         args.out,
         device,
     )
+    if init is not None and not resume:
+        trainer.net.load_state_dict(init.state_dict())
     if resume:
         trainer.resume()
         print(f"[train collision] resumed at iteration {trainer.iteration} ({trainer.elapsed / 60:.1f} min)")
@@ -143,6 +188,11 @@ def train(args: argparse.Namespace, config: TrainCollisionConfig, argv: list[str
             "config": config.to_dict(),
         },
         "vae": vae_info(Path(vae_stem)),
+        **(
+            {"init": {"parent": str(args.init), "sha256": file_sha256(Path(args.init).with_suffix(".safetensors"))}}
+            if args.init is not None
+            else {}
+        ),  # fmt: skip
         "camera": {"intrinsics": CameraConfig().intrinsics.__dict__},
     }
     budget_s = None if args.minutes is None else args.minutes * 60.0
@@ -196,7 +246,15 @@ def main(argv: list[str] | None = None) -> int:
     args, config = parse_args(argv)
     if args.generate:
         torch.set_num_threads(1)
-        generate_dataset(config.data, args.generate, split="train", seed=args.data_seed, workers=args.workers)
+        try:
+            check_family(config.family)
+        except ValueError as e:
+            print(f"train collision --generate: {e}", file=sys.stderr)
+            return 2
+        cfg = DatasetConfig(family=config.family)
+        generate_dataset(
+            config.data, args.generate, split="train", seed=args.data_seed, config=cfg, workers=args.workers
+        )
         return 0
     if args.grow:
         from latent_planner_ros.training.grow_collision import grow

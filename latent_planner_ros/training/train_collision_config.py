@@ -9,6 +9,14 @@ from dataclasses import asdict, dataclass
 class TrainCollisionConfig:
     """Training of the collision network on cached labelled scenes, clouds rendered on the fly."""
 
+    family: str = "train"
+    """scene family of generated training shards (data/scene_families.py: "train" tabletop, "mix" = tabletop and
+    workcells, ...); shards of different families may share a data directory only if generated with distinct
+    --data-seed values"""
+    val_seen_family: str = "train"
+    """family of the validation scenes that select the best network"""
+    val_unseen_family: str = "heldout"
+    """family of the held-out validation scenes (reported, never used for selection)"""
     data: str = "data_cache/collision/train"
     """directory of training shards (rescanned every `refresh_every` steps, so generation may continue)"""
     val_dir: str = "data_cache/collision"

@@ -129,3 +129,29 @@ def test_cli_grow_writes_the_network_over_a_larger_box_with_both_scores(workspac
     assert "another VAE" in capsys.readouterr().err
     assert main(["--grow", stem, "--out", str(out), *common]) == 2  # no new box
     assert "--box-max" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_cli_init_fine_tunes_a_trained_network_over_a_larger_box(workspace, tmp_path, capsys):
+    from latent_planner_ros.models.collision_io import save_collision_net
+    from latent_planner_ros.models.collision_net import CollisionNet
+
+    torch.manual_seed(0)
+    parent = save_collision_net(tmp_path / "parent", CollisionNet(SMALL_NET), {"training": {"command": "train it"}})
+    out = tmp_path / "tuned"
+    common = ["--vae", str(workspace / "vae"), "--data", str(workspace / "train"), "--val-dir", str(workspace),
+              "--val-scenes", "1", "--scenes-per-step", "2", "--queries-per-scene", "16", "--eval-every", "2",
+              "--threads", "1", "--out", str(out)]  # fmt: skip
+    box = ["--box-min", "-1.0", "-1.0", "-0.05", "--box-max", "1.0", "1.0", "1.25"]
+    assert main(["--iterations", "2", "--init", str(parent.with_suffix("")), *box, *common]) == 0
+    net, meta = load_collision_net(out / "best")
+    assert net.config.encoder.bounds_min == (-1.0, -1.0, -0.05) and net.config.encoder.bounds_max == (1.0, 1.0, 1.25)
+    assert meta["init"]["parent"] == str(parent.with_suffix("")) and "--init" in meta["training"]["command"]
+    off_grid = ["--box-min", "-0.95", "-1.0", "-0.05"]
+    assert main(["--iterations", "1", "--init", str(parent.with_suffix("")), *off_grid, *common]) == 2
+    assert "voxel grid" in capsys.readouterr().err
+
+
+def test_generate_refuses_an_unknown_family(tmp_path, capsys):
+    assert main(["--generate", "2", "--family", "kitchen", "--data", str(tmp_path / "d")]) == 2
+    assert "kitchen" in capsys.readouterr().err and not (tmp_path / "d").exists()
