@@ -60,7 +60,8 @@ class CollisionPredictor:
 
     def encode(self, points: np.ndarray | torch.Tensor, eye: np.ndarray | None = None) -> SceneEmbedding:
         """Embed one cloud (N, 3) float [m] in `world` (robot points removed), seen from the camera origin
-        eye (3,) [m] in `world` when known (None: unknown; ignored by a network without visibility channels)."""
+        eye [m] in `world` when known: (3,) one camera, or (N, 3) one origin per point of a cloud fused from several
+        cameras (None: unknown; ignored by a network without visibility channels)."""
         with torch.no_grad():
             return self.net.encoder.encode(points, eye)
 

@@ -156,6 +156,7 @@ class SceneEncoder(nn.Module):
         batch: torch.Tensor | None = None,
         n_batch: int = 1,
         eyes: torch.Tensor | None = None,
+        point_eyes: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """Encode clouds.
 
@@ -164,6 +165,8 @@ class SceneEncoder(nn.Module):
             batch: (N,) int64 index of the cloud each point belongs to (default: all in cloud 0).
             n_batch: number of clouds B.
             eyes: (B, 3) camera origins [m] in `world` (a NaN row or None: unknown); used with `visibility`.
+            point_eyes: (N, 3) origin [m] in `world` of the camera that saw each point (a NaN row: unknown), for
+                clouds fused from several cameras; replaces `eyes` (models/visibility.py combines the cameras).
         Returns:
             (B, C, nx, ny, nz) voxel features.
         """
@@ -172,7 +175,12 @@ class SceneEncoder(nn.Module):
         n_vox = nx * ny * nz
         points = points.to(self.bounds_min.dtype)
         batch = torch.zeros(len(points), dtype=torch.long, device=points.device) if batch is None else batch
-        if cfg.visibility:
+        if cfg.visibility and point_eyes is not None:
+            seen = vis.visibility_grid_per_point(
+                points, batch, n_batch, point_eyes.to(points.dtype).reshape(-1, 3), self.samples, self.centre,
+                cfg.visibility_bin, cfg.visibility_margin_m,
+            )  # fmt: skip
+        elif cfg.visibility:
             eyes = torch.full((n_batch, 3), float("nan")) if eyes is None else eyes.to(points.dtype).reshape(-1, 3)
             seen = vis.visibility_grid(
                 points, batch, eyes, self.samples, self.centre, cfg.visibility_bin, cfg.visibility_margin_m
@@ -210,10 +218,36 @@ class SceneEncoder(nn.Module):
         return torch.relu_(second(torch.relu_(h)))
 
     def encode(self, points: np.ndarray | torch.Tensor, eye: np.ndarray | None = None) -> SceneEmbedding:
-        """Embedding of one cloud (N, 3) [m] in `world`, seen from the camera origin eye (3,) [m] if known."""
+        """Embedding of one cloud (N, 3) [m] in `world` seen from the camera origin `eye` [m] in `world`, if known.
+
+        eye: None (unknown), (3,) the one camera's optical centre, or (N, 3) the origin of each point (a cloud
+        fused from several cameras; NaN rows: unknown). Per-point origins that are all the same finite row give
+        exactly the (3,) result.
+        Raises:
+            ValueError: eye is neither (3,) nor (N, 3).
+        """
         p = torch.as_tensor(np.asarray(points, dtype=np.float32) if not torch.is_tensor(points) else points)
-        e = None if eye is None else torch.as_tensor(np.asarray(eye, dtype=np.float32).reshape(1, 3))
-        return SceneEmbedding(self.forward(p.reshape(-1, 3).to(self.bounds_min.device), eyes=e)[0], self.config)
+        p = p.reshape(-1, 3).to(self.bounds_min.device)
+        if eye is None:
+            return SceneEmbedding(self.forward(p)[0], self.config)
+        e = np.asarray(eye.detach().cpu() if torch.is_tensor(eye) else eye, dtype=np.float32)
+        if e.size == 3:
+            return SceneEmbedding(self.forward(p, eyes=torch.as_tensor(e.reshape(1, 3)))[0], self.config)
+        if e.shape != (len(p), 3):
+            raise ValueError(f"eye: expected shape (3,) or ({len(p)}, 3) for {len(p)} points, got {e.shape}")
+        single = single_origin(e)
+        if single is not None:  # one camera: the (3,) computation, bit for bit
+            return SceneEmbedding(self.forward(p, eyes=torch.as_tensor(single.reshape(1, 3)))[0], self.config)
+        return SceneEmbedding(self.forward(p, point_eyes=torch.as_tensor(e))[0], self.config)
+
+
+def single_origin(origins: np.ndarray) -> np.ndarray | None:
+    """The one origin (3,) shared by every row of origins (N, 3) when they are all the same finite point (N > 0),
+    else None."""
+    o = np.asarray(origins).reshape(-1, 3)
+    if not len(o) or not np.all(np.isfinite(o)) or not np.all(o == o[0]):
+        return None
+    return o[0].copy()
 
 
 def conv3d_by_slices(x: torch.Tensor, conv: nn.Conv3d) -> torch.Tensor:

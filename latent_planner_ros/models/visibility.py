@@ -14,6 +14,21 @@ as the robot's) or outside the direction grid is neither: unknown.
 
 The encoder appends three channels per voxel: the fraction of free samples, the fraction of hidden samples,
 and 1 (0 for a cloud whose camera origin is unknown: then all three are 0).
+
+Several cameras (a fused cloud with one origin per point, :func:`visibility_grid_per_point`): the points are
+grouped by origin (one group per camera), each group is binned and compared as above from its own origin, and
+the sub-voxel samples combine per sample, like space carving:
+
+- free: free for at least one camera (some ray passed through it);
+- hidden: seen by at least one camera (a return in its direction) and hidden for every camera that sees it,
+  so a sample one camera sees free or on a surface is not hidden;
+- unknown: seen by no camera.
+
+The voxel's channels are then the fractions of free and hidden samples, as with one camera, so each is at least
+the best single camera's free fraction and at most the smallest hidden fraction among the cameras seeing the
+voxel. Points whose origin is unknown (a NaN row) still occupy their voxels but see nothing; the third channel
+is 1 for a cloud with at least one known origin. With one distinct origin per cloud the results are bit-identical
+to :func:`visibility_grid` with that origin.
 """
 
 from __future__ import annotations
@@ -60,6 +75,37 @@ def _project(rel: torch.Tensor, frames: torch.Tensor, bin_tan: float, n_bins: in
     return flat, rel.norm(dim=-1)
 
 
+def _sample_states(
+    points: torch.Tensor,
+    group: torch.Tensor,
+    eyes: torch.Tensor,
+    samples: torch.Tensor,
+    target: torch.Tensor,
+    bin_tan: float,
+    margin: float,
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Per view and sample: (free, hidden, seen), each (G, V, S) bool.
+
+    Args:
+        points: (N, 3) points [m] in `world`; group: (N,) int64 view index of each point.
+        eyes: (G, 3) finite view origins [m] in `world`.
+        samples, target, bin_tan, margin: as in :func:`visibility_grid`.
+    """
+    n_g, (n_v, n_s) = len(eyes), samples.shape[:2]
+    frames = _frames(eyes, target)
+    n_bins = int(round(2 * TAN_RANGE / bin_tan))
+    flat, rng = _project((points - eyes[group])[:, None, :], frames[group], bin_tan, n_bins)
+    flat, rng = flat[:, 0], rng[:, 0]
+    keep = flat >= 0
+    depth = torch.full((n_g * n_bins * n_bins,), NO_RETURN, dtype=points.dtype)
+    depth = depth.scatter_reduce(0, (group * n_bins * n_bins + flat)[keep], rng[keep], "amin", include_self=True)
+    depth = -F.max_pool2d(-depth.reshape(n_g, 1, n_bins, n_bins), 3, 1, 1).reshape(n_g, -1)
+    s_flat, s_rng = _project(samples[None] - eyes[:, None, None, :], frames, bin_tan, n_bins)  # (G, V, S)
+    surface = torch.gather(depth, 1, s_flat.clamp_min(0).reshape(n_g, -1)).reshape(n_g, n_v, n_s)
+    seen = (s_flat >= 0) & (surface < NO_RETURN)
+    return (s_rng < surface - margin) & seen, (s_rng > surface + margin) & seen, seen
+
+
 def visibility_grid(
     points: torch.Tensor,
     batch: torch.Tensor,
@@ -80,21 +126,52 @@ def visibility_grid(
         bin_tan: bin width of the direction grid, in tangent units (about radians near its centre).
         margin: [m] a sample within this range of its bin's surface is neither free nor hidden.
     """
-    n_b, (n_v, n_s) = len(eyes), samples.shape[:2]
     known = torch.isfinite(eyes).all(-1)
     safe_eyes = torch.where(known[:, None], eyes, target.expand_as(eyes) + torch.tensor([0.0, 0.0, 1.0]))
-    frames = _frames(safe_eyes, target)
-    n_bins = int(round(2 * TAN_RANGE / bin_tan))
-    flat, rng = _project((points - safe_eyes[batch])[:, None, :], frames[batch], bin_tan, n_bins)
-    flat, rng = flat[:, 0], rng[:, 0]
-    keep = flat >= 0
-    depth = torch.full((n_b * n_bins * n_bins,), NO_RETURN, dtype=points.dtype)
-    depth = depth.scatter_reduce(0, (batch * n_bins * n_bins + flat)[keep], rng[keep], "amin", include_self=True)
-    depth = -F.max_pool2d(-depth.reshape(n_b, 1, n_bins, n_bins), 3, 1, 1).reshape(n_b, -1)
-    s_flat, s_rng = _project(samples[None] - safe_eyes[:, None, None, :], frames, bin_tan, n_bins)  # (B, V, S)
-    surface = torch.gather(depth, 1, s_flat.clamp_min(0).reshape(n_b, -1)).reshape(n_b, n_v, n_s)
-    seen = (s_flat >= 0) & (surface < NO_RETURN)
-    free = ((s_rng < surface - margin) & seen).to(points.dtype).mean(-1)
-    hidden = ((s_rng > surface + margin) & seen).to(points.dtype).mean(-1)
+    free, hidden, _ = _sample_states(points, batch, safe_eyes, samples, target, bin_tan, margin)
+    free, hidden = free.to(points.dtype).mean(-1), hidden.to(points.dtype).mean(-1)
     out = torch.stack([free, hidden, torch.ones_like(free)], -1)
     return out * known[:, None, None].to(out.dtype)
+
+
+def visibility_grid_per_point(
+    points: torch.Tensor,
+    batch: torch.Tensor,
+    n_batch: int,
+    point_eyes: torch.Tensor,
+    samples: torch.Tensor,
+    target: torch.Tensor,
+    bin_tan: float,
+    margin: float,
+) -> torch.Tensor:
+    """Visibility channels (B, V, 3) of clouds fused from several cameras, one origin per point.
+
+    The points of each cloud are grouped by their origin (one group per camera) and the cameras' views are
+    combined per sample as the module docstring says.
+
+    Args:
+        points: (N, 3) cloud points [m] in `world` of all clouds together.
+        batch: (N,) int64 cloud index of each point.
+        n_batch: number of clouds B.
+        point_eyes: (N, 3) origin [m] in `world` of the camera that saw each point; a row with a NaN: unknown.
+        samples, target, bin_tan, margin: as in :func:`visibility_grid`.
+    """
+    n_v, n_s = samples.shape[:2]
+    known = torch.isfinite(point_eyes).all(-1)
+    pts, bat, eye = points[known], batch[known], point_eyes[known].to(points.dtype)
+    key = torch.cat([bat[:, None].to(eye.dtype), eye], 1)
+    views, group = torch.unique(key, dim=0, return_inverse=True)  # (G, 4): cloud index and origin
+    out = torch.zeros(n_batch, n_v, 3, dtype=points.dtype)
+    if not len(views):
+        return out
+    free, hidden, seen = _sample_states(pts, group, views[:, 1:], samples, target, bin_tan, margin)
+    view_cloud = views[:, 0].long()
+    for b in torch.unique(view_cloud).tolist():
+        mine = view_cloud == b
+        f, h, s = free[mine], hidden[mine], seen[mine]
+        free_b = f.any(0)
+        hidden_b = s.any(0) & ~(s & ~h).any(0)
+        out[b, :, 0] = free_b.to(points.dtype).mean(-1)
+        out[b, :, 1] = hidden_b.to(points.dtype).mean(-1)
+        out[b, :, 2] = 1.0
+    return out

@@ -16,10 +16,12 @@ class CameraOrigin:
     Args:
         max_age_s: a pose whose stamp is more than this from the cloud's stamp [s] is not used with it;
             0 = any pose is used (a fixed camera whose pose was published once).
+        topic: the pose topic's name, for the status words.
     """
 
-    def __init__(self, max_age_s: float):
+    def __init__(self, max_age_s: float, topic: str = "camera/pose"):
         self.max_age_s = float(max_age_s)
+        self.topic = topic
         self.position: np.ndarray | None = None
         self.stamp_s = 0.0
 
@@ -31,8 +33,8 @@ class CameraOrigin:
     def for_cloud(self, cloud_stamp_s: float) -> tuple[np.ndarray | None, str]:
         """The origin (3,) to encode a cloud stamped cloud_stamp_s [s] with, or None, and a status word."""
         if self.position is None:
-            return None, "unknown: no camera/pose received"
+            return None, f"unknown: no {self.topic} received"
         gap = abs(cloud_stamp_s - self.stamp_s)
         if self.max_age_s > 0.0 and gap > self.max_age_s:
-            return None, f"unknown: newest camera/pose is {gap:.2f} s from the cloud's stamp"
+            return None, f"unknown: newest {self.topic} is {gap:.2f} s from the cloud's stamp"
         return self.position, "known"

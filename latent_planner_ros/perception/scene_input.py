@@ -31,6 +31,8 @@ class PreparedCloud:
         points_finite: of those, points with finite coordinates.
         points_inside: of those, points inside the workspace bounds.
         voxel_m: edge [m] of the downsampling voxel used; 0 when the cloud was small enough as it was.
+        origins: (M, 3) float64 [m] in `world`, the camera origin of each point (NaN rows: unknown), when the
+            cloud came with per-point origins; else None.
     """
 
     points: np.ndarray
@@ -38,23 +40,27 @@ class PreparedCloud:
     points_finite: int
     points_inside: int
     voxel_m: float = 0.0
+    origins: np.ndarray | None = None
 
     @property
     def points_used(self) -> int:
         return len(self.points)
 
 
-def crop_to_bounds(points: np.ndarray, bounds_min, bounds_max) -> np.ndarray:
-    """The points (N, 3) [m] inside the half-open box [bounds_min, bounds_max) (the voxels the encoder sees).
-
-    Compared in float32, as the encoder does.
-    """
+def inside_bounds(points: np.ndarray, bounds_min, bounds_max) -> np.ndarray:
+    """(N,) bool: which points (N, 3) [m] are inside the half-open box [bounds_min, bounds_max), compared in
+    float32 as the encoder does."""
     low, high = np.asarray(bounds_min, dtype=np.float32), np.asarray(bounds_max, dtype=np.float32)
     p = np.asarray(points).astype(np.float32, copy=False)
     inside = np.ones(len(p), dtype=bool)
     for axis in range(3):  # column by column: np.all(..., axis=1) is slow on rows of 3
         inside &= (p[:, axis] >= low[axis]) & (p[:, axis] < high[axis])
-    return points[inside]
+    return inside
+
+
+def crop_to_bounds(points: np.ndarray, bounds_min, bounds_max) -> np.ndarray:
+    """The points (N, 3) [m] inside the half-open box [bounds_min, bounds_max) (the voxels the encoder sees)."""
+    return points[inside_bounds(points, bounds_min, bounds_max)]
 
 
 def limit_points(points: np.ndarray, max_points: int, voxel: float) -> tuple[np.ndarray, float]:
@@ -79,8 +85,46 @@ def limit_points(points: np.ndarray, max_points: int, voxel: float) -> tuple[np.
     return out[keep], used
 
 
+def limit_points_by_origin(
+    points: np.ndarray, origins: np.ndarray, max_points: int, voxel: float
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """:func:`limit_points` for a cloud with one origin per point: each camera's points (same origin row; NaN
+    rows form one group) are downsampled on their own, so every kept point keeps its camera's origin.
+
+    Args:
+        points: (M, 3) [m]; origins: (M, 3) [m] aligned with points.
+    Returns:
+        points (K, 3) float32, their origins (K, 3) float64, and the voxel edge [m] used (0 = unchanged).
+        With one origin for all points, the points are exactly those of :func:`limit_points`.
+    """
+    if len(points) <= max_points:
+        return points, origins, 0.0
+    _, group = np.unique(np.nan_to_num(origins, nan=np.inf), axis=0, return_inverse=True)
+    members = [np.flatnonzero(group.reshape(-1) == g) for g in range(int(group.max()) + 1)]
+    out, out_origins, used = points, origins, 0.0
+    if voxel > 0.0:
+        size = voxel
+        for _ in range(MAX_VOXEL_TRIES):
+            parts = [voxel_downsample(points[m], size).astype(np.float32) for m in members]
+            out = np.concatenate(parts)
+            rows = [np.broadcast_to(origins[m[0]], p.shape) for m, p in zip(members, parts, strict=True)]
+            out_origins = np.concatenate(rows)
+            used = size
+            if len(out) <= max_points:
+                return out, out_origins.astype(np.float64), used
+            size *= max(MIN_VOXEL_GROWTH, float(np.sqrt(len(out) / max_points)))
+    keep = np.linspace(0, len(out) - 1, max_points).round().astype(np.int64)
+    return out[keep], np.asarray(out_origins, dtype=np.float64)[keep], used
+
+
 def prepare_cloud(
-    points: np.ndarray, bounds_min, bounds_max, max_points: int, voxel: float, points_in: int | None = None
+    points: np.ndarray,
+    bounds_min,
+    bounds_max,
+    max_points: int,
+    voxel: float,
+    points_in: int | None = None,
+    origins: np.ndarray | None = None,
 ) -> PreparedCloud:
     """Filter, crop and bound a cloud for the encoder.
 
@@ -90,17 +134,30 @@ def prepare_cloud(
         max_points: clouds with more points (after cropping) are downsampled to at most this many.
         voxel: [m] edge of the first downsampling voxel (0: keep evenly spaced points instead).
         points_in: points received, when non-finite ones were already dropped upstream (default N).
+        origins: (N, 3) [m] the camera origin of each point (a fused cloud), kept aligned with the points.
     Raises:
-        ValueError: points is not (N, 3).
+        ValueError: points is not (N, 3), or origins not of the same shape.
     """
     pts = np.asarray(points, dtype=np.float32)
     if pts.ndim != 2 or pts.shape[1] != 3:
         raise ValueError(f"points: expected shape (N, 3), got {pts.shape}")
-    finite = pts[np.all(np.isfinite(pts), axis=1)]
-    inside = crop_to_bounds(finite, bounds_min, bounds_max)
-    used, size = limit_points(inside, max_points, voxel)
     received = len(pts) if points_in is None else max(int(points_in), len(pts))
-    return PreparedCloud(np.ascontiguousarray(used, dtype=np.float32), received, len(finite), len(inside), size)
+    if origins is None:
+        finite = pts[np.all(np.isfinite(pts), axis=1)]
+        inside = crop_to_bounds(finite, bounds_min, bounds_max)
+        used, size = limit_points(inside, max_points, voxel)
+        return PreparedCloud(np.ascontiguousarray(used, dtype=np.float32), received, len(finite), len(inside), size)
+    org = np.asarray(origins, dtype=np.float64)
+    if org.shape != pts.shape:
+        raise ValueError(f"origins: expected shape {pts.shape} like the points, got {org.shape}")
+    keep = np.all(np.isfinite(pts), axis=1)
+    n_finite = int(keep.sum())
+    keep &= inside_bounds(pts, bounds_min, bounds_max)
+    used, used_origins, size = limit_points_by_origin(pts[keep], org[keep], max_points, voxel)
+    return PreparedCloud(
+        np.ascontiguousarray(used, dtype=np.float32), received, n_finite, int(keep.sum()), size,
+        np.ascontiguousarray(used_origins, dtype=np.float64),
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -63,7 +63,8 @@ class GeometricBackend:
         return cloud
 
     def set_scene(self, cloud: np.ndarray, origin: np.ndarray | None = None) -> None:
-        """Use cloud (N, 3) [m] for both the cost (distance field) and the hard check (origin is not used)."""
+        """Use cloud (N, 3) [m] for both the cost (distance field) and the hard check (origin, (3,) or (N, 3) per
+        point, is not used: only observed points are obstacles here)."""
         cloud = self.set_check_cloud(cloud)
         res = self.config.resolution
         shape = np.ceil((self._hi - self._lo) / res).astype(int) + 1

@@ -17,7 +17,7 @@ from latent_planner_ros.models import trilinear
 from latent_planner_ros.models.collision_io import PLANNER_COLLISION, shipped_collision_path
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
 from latent_planner_ros.models.scene_encoder import SceneEmbedding
-from latent_planner_ros.perception.scene_input import crop_to_bounds
+from latent_planner_ros.perception.scene_input import inside_bounds
 from latent_planner_ros.planning.ball_query import finite_rows
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.robot.panda import LINK_FRAMES
@@ -61,18 +61,33 @@ class LearnedBackend:
     # -- scene ------------------------------------------------------------------------------------
     def set_scene(self, scene: SceneEmbedding | np.ndarray, origin: np.ndarray | None = None) -> None:
         """A scene embedding (from the scene_encoder node), or a raw cloud (N, 3) [m] encoded here, seen from
-        the camera origin (3,) [m] in `world` if known (a non-finite origin counts as unknown). The network
+        the camera origin in `world` if known: (3,) [m] for one camera (a non-finite origin counts as unknown),
+        or (N, 3) [m] one per point for a cloud fused from several cameras (NaN rows: unknown). The network
         encodes the points inside its workspace box (as the scene_encoder node crops them); the geometric part
-        of the hard check keeps every point."""
+        of the hard check keeps every point.
+
+        Raises:
+            ValueError: origin is neither (3,) nor (N, 3).
+        """
         if isinstance(scene, SceneEmbedding):
             self.embedding = scene
             return
         cloud = np.asarray(scene, dtype=np.float32).reshape(-1, 3)
-        cloud = cloud[finite_rows(cloud)]
-        if origin is not None and not np.all(np.isfinite(np.asarray(origin, dtype=float))):
-            origin = None
+        keep = finite_rows(cloud)
+        if origin is not None:
+            origin = np.asarray(origin, dtype=float)
+            if origin.size == 3 and origin.shape != (len(cloud), 3):
+                origin = origin.reshape(3) if np.all(np.isfinite(origin)) else None
+            elif origin.shape == (len(cloud), 3):
+                origin = origin[keep]
+            else:
+                raise ValueError(f"origin: expected shape (3,) or ({len(cloud)}, 3), got {origin.shape}")
+        cloud = cloud[keep]
         enc = self.predictor.net.config.encoder  # the network sees its workspace box, as in training
-        self.embedding = self.predictor.encode(crop_to_bounds(cloud, enc.bounds_min, enc.bounds_max), origin)
+        inside = inside_bounds(cloud, enc.bounds_min, enc.bounds_max)
+        if origin is not None and origin.ndim == 2:
+            origin = origin[inside]
+        self.embedding = self.predictor.encode(cloud[inside], origin)
         self.set_cloud(cloud)
 
     def set_cloud(self, cloud: np.ndarray) -> None:

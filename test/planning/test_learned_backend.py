@@ -86,6 +86,27 @@ def test_a_cloud_is_encoded_with_its_camera_origin_and_a_non_finite_origin_count
     torch.testing.assert_close(backend.embedding.features, blind)
 
 
+def test_per_point_origins_of_one_camera_equal_its_single_origin_and_two_cameras_differ(rng):
+    torch.manual_seed(0)
+    config = CollisionNetConfig(encoder=SceneEncoderConfig(visibility=True, conv_channels=(8, 6)), hidden=(16,))
+    vae = RobotStateVAE(VaeConfig(hidden=16, layers=1))
+    backend = LearnedBackend(CollisionPredictor(CollisionNet(config), vae))
+    cloud = rng.uniform([0.3, -0.2, 0.0], [0.5, 0.2, 0.3], size=(500, 3)).astype(np.float32)
+    cloud[::50] = np.nan  # dropped with their origins
+    cloud[1::50, 2] = 2.0  # above the network's box: cropped with their origins
+    eye, other = np.array([1.6, 0.7, 0.9]), np.array([0.4, -1.2, 1.0])
+    backend.set_scene(cloud, eye)
+    single = backend.embedding.features.clone()
+    backend.set_scene(cloud, np.tile(eye, (len(cloud), 1)))
+    assert torch.equal(backend.embedding.features, single)
+    origins = np.tile(eye, (len(cloud), 1))
+    origins[len(cloud) // 2 :] = other
+    backend.set_scene(cloud, origins)
+    assert not torch.allclose(backend.embedding.features, single)
+    with pytest.raises(ValueError, match="origin"):
+        backend.set_scene(cloud, origins[:-1])
+
+
 def test_points_above_the_networks_box_reach_the_hard_check_but_not_the_encoder(rng):
     torch.manual_seed(0)
     encoder = SceneEncoderConfig(visibility=True, conv_channels=(8, 6), bounds_max=(1.0, 0.6, 0.55))

@@ -1,0 +1,214 @@
+"""Fusing the clouds of several depth cameras into one cloud in `world`, with one camera origin per point. No ROS.
+
+Each camera publishes its own cloud topic (sensor_msgs/PointCloud2 in `world`) and, beside it, a pose topic with
+its optical centre (`<ns>/points` and `<ns>/pose`, as the sim does; :func:`pose_topic_of`). A node keeps a
+:class:`CloudFusion` over its configured cloud topics: it holds the newest accepted cloud of each topic and the
+newest origin of each camera, refuses clouds from topics it was not configured with and clouds in another frame
+(with a reason for the node's status), and :meth:`CloudFusion.fuse` concatenates the clouds that are not stale:
+a topic's cloud stamped more than `max_age_s` away from the reference stamp (the newest cloud's) is left out and
+named. Each point carries the origin of its camera (NaN when the camera's pose is unknown or too far in time).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from latent_planner_ros.perception.camera_origin import CameraOrigin
+
+POSE_NAME = "pose"
+"""Last token of a camera's pose topic, beside its cloud topic (`camera/points` -> `camera/pose`)."""
+
+
+def pose_topic_of(cloud_topic: str) -> str:
+    """The pose topic beside a cloud topic: its last token replaced by `pose` (`left/points` -> `left/pose`,
+    `/a/b/points` -> `/a/b/pose`, `points` -> `pose`), as image_transport pairs an image with its camera_info."""
+    head, sep, _ = cloud_topic.rpartition("/")
+    return f"{head}{sep}{POSE_NAME}"
+
+
+class CloudRefused(ValueError):
+    """A cloud was not accepted; the message says which topic and why."""
+
+
+@dataclass(frozen=True)
+class FusedCloud:
+    """The fused scene.
+
+    Attributes:
+        points: (N, 3) float32 [m] in `world`, the clouds of `sources` one after another (finite points only).
+        origins: (N, 3) float64 [m] in `world`: the optical centre of the camera that saw each point; NaN rows
+            where that camera's origin is unknown.
+        stamp_s: [s] stamp of the newest cloud used (0 when none).
+        sources: the topics whose clouds were used, in configuration order.
+        counts: points per used topic (same order as sources).
+        stale: {topic: how far [s] its newest cloud is from stamp_s} for the topics left out as stale.
+        missing: topics that have not delivered any cloud yet.
+        origin_notes: {topic: status word of its origin ("known" or "unknown: ...")} for the used topics.
+    """
+
+    points: np.ndarray
+    origins: np.ndarray
+    stamp_s: float = 0.0
+    sources: tuple[str, ...] = ()
+    counts: tuple[int, ...] = ()
+    stale: dict = field(default_factory=dict)
+    missing: tuple[str, ...] = ()
+    origin_notes: dict = field(default_factory=dict)
+
+    def origin_summary(self) -> str:
+        """One status word for the cloud's origins: "known", "unknown: <why>" or "known for K of M cameras ..."."""
+        notes = [self.origin_notes[t] for t in self.sources]
+        if not notes:
+            return "none (no cloud)"
+        if len(notes) == 1:
+            return notes[0]
+        known = sum(n == "known" for n in notes)
+        if known == len(notes):
+            return "known"
+        unknown = "; ".join(f"{t}: {n}" for t, n in self.origin_notes.items() if n != "known")
+        return f"known for {known} of {len(notes)} cameras ({unknown})"
+
+    def describe(self) -> str:
+        """Sources with point counts, and the stale ones: e.g. "camera/points 812, left/points 640; stale: ..."."""
+        text = ", ".join(f"{t} {n}" for t, n in zip(self.sources, self.counts, strict=True)) or "none"
+        if self.stale:
+            text += "; stale: " + ", ".join(f"{t} ({gap:.2f} s behind)" for t, gap in self.stale.items())
+        return text
+
+
+@dataclass
+class _Held:
+    points: np.ndarray
+    stamp_s: float
+
+
+class CloudFusion:
+    """The newest cloud of each configured topic and the newest origin of each camera, fused on demand.
+
+    Args:
+        topics: the cloud topics (names as configured, one per camera; at least one, no repeats).
+        frame_id: the only frame clouds and poses are accepted in.
+        max_age_s: [s] a topic's cloud stamped further than this from the reference stamp is left out (stale);
+            0 = never.
+        origin_max_age_s: [s] a camera pose stamped further than this from its cloud's stamp is not used with it
+            (the points' origins are then unknown); 0 = any age.
+
+    Raises:
+        ValueError: no topics, or a topic listed twice.
+    """
+
+    def __init__(self, topics: Sequence[str], frame_id: str = "world", max_age_s: float = 0.5, origin_max_age_s=1.0):
+        topics = tuple(topics)
+        if not topics:
+            raise ValueError("cloud topics: at least one is needed")
+        if len(set(topics)) != len(topics):
+            raise ValueError(f"cloud topics: {list(topics)} lists a topic twice")
+        self.topics = topics
+        self.frame_id = frame_id
+        self.max_age_s = float(max_age_s)
+        self._clouds: dict[str, _Held] = {}
+        self._origins = {t: CameraOrigin(origin_max_age_s, pose_topic_of(t)) for t in topics}
+        self.newest: str | None = None
+        """The topic of the cloud accepted last."""
+
+    def set_origin_max_age(self, seconds: float) -> None:
+        """Change origin_max_age_s [s] of every camera."""
+        for origin in self._origins.values():
+            origin.max_age_s = float(seconds)
+
+    def check(self, topic: str, frame_id: str) -> None:
+        """CloudRefused unless topic is configured and frame_id is the fusion frame (call before converting)."""
+        if topic not in self._origins:
+            raise CloudRefused(f"{topic} refused: not a configured cloud topic (configured: {list(self.topics)})")
+        if frame_id != self.frame_id:
+            raise CloudRefused(f"{topic} refused: frame {frame_id!r}, expected {self.frame_id!r}")
+
+    def add_cloud(self, topic: str, points: np.ndarray, frame_id: str, stamp_s: float) -> None:
+        """Keep points (N, 3) [m] (NaN/inf rows are dropped) as the newest cloud of topic, stamped stamp_s [s].
+
+        Raises:
+            CloudRefused: an unknown topic, another frame, or points that are not (N, 3); the topic keeps its
+                previous cloud.
+        """
+        self.check(topic, frame_id)
+        pts = np.asarray(points, dtype=np.float32)
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            raise CloudRefused(f"{topic} refused: expected points of shape (N, 3), got {pts.shape}")
+        pts = pts[np.all(np.isfinite(pts), axis=1)]
+        self._clouds[topic] = _Held(pts, float(stamp_s))
+        self.newest = topic
+
+    def add_pose(self, topic: str, position: np.ndarray, frame_id: str, stamp_s: float) -> None:
+        """The optical centre (3,) [m] of the camera of cloud topic `topic`, stamped stamp_s [s].
+
+        Raises:
+            CloudRefused: an unknown topic, another frame, or a non-finite position (the previous origin stays).
+        """
+        pose_topic = pose_topic_of(topic)
+        if topic not in self._origins:
+            raise CloudRefused(f"{pose_topic} refused: not the pose of a configured cloud topic")
+        if frame_id != self.frame_id:
+            raise CloudRefused(f"{pose_topic} refused: frame {frame_id!r}, expected {self.frame_id!r}")
+        p = np.asarray(position, dtype=np.float64).reshape(-1)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise CloudRefused(f"{pose_topic} refused: position {p.tolist()} is not 3 finite numbers")
+        self._origins[topic].on_pose(p, stamp_s)
+
+    def clear(self) -> None:
+        """Forget the held clouds (origins stay: cameras are fixed)."""
+        self._clouds.clear()
+        self.newest = None
+
+    def round_complete(self, since_stamp_s: float) -> bool:
+        """Whether every topic that is not stale has delivered a cloud stamped after since_stamp_s [s] (the
+        stamp of the last fused cloud used): a fusing node that waits for this publishes once per round of
+        cameras, at the rate of the slowest live one; a camera gone silent stops holding it up after max_age_s."""
+        if self.newest is None:
+            return False
+        ref = self._clouds[self.newest].stamp_s
+        for held in self._clouds.values():
+            if self._is_stale(held, ref):
+                continue
+            if held.stamp_s <= since_stamp_s:
+                return False
+        return True
+
+    def _is_stale(self, held: _Held, ref: float) -> bool:
+        return self.max_age_s > 0.0 and abs(ref - held.stamp_s) > self.max_age_s
+
+    def fuse(self) -> FusedCloud:
+        """The fused cloud of the topics' newest clouds, the newest accepted cloud's stamp as reference."""
+        empty = np.zeros((0, 3), dtype=np.float32)
+        missing = tuple(t for t in self.topics if t not in self._clouds)
+        if self.newest is None:
+            return FusedCloud(empty, np.zeros((0, 3)), missing=missing)
+        ref = self._clouds[self.newest].stamp_s
+        points, origins, sources, counts, stale, notes = [], [], [], [], {}, {}
+        newest = 0.0
+        for topic in self.topics:
+            held = self._clouds.get(topic)
+            if held is None:
+                continue
+            if self._is_stale(held, ref):
+                stale[topic] = abs(ref - held.stamp_s)
+                continue
+            origin, notes[topic] = self._origins[topic].for_cloud(held.stamp_s)
+            points.append(held.points)
+            row = np.full(3, np.nan) if origin is None else origin
+            origins.append(np.broadcast_to(row, held.points.shape))
+            sources.append(topic)
+            counts.append(len(held.points))
+            newest = max(newest, held.stamp_s)
+        return FusedCloud(
+            np.concatenate(points).astype(np.float32, copy=False),
+            np.concatenate(origins).astype(np.float64),
+            newest,
+            tuple(sources),
+            tuple(counts),
+            stale,
+            missing,
+            notes,
+        )
