@@ -66,3 +66,21 @@ def test_collisions_beyond_the_networks_box_are_found_by_their_contacts():
     )
     assert outside_box(data, (0.0, -0.6, -0.05), (1.0, 0.6, 0.55)).tolist() == [True, False, False]
     assert outside_box(data, (0.0, -0.6, -0.05), (1.0, 0.6, 1.0)).tolist() == [False, False, False]
+
+
+@pytest.mark.slow
+def test_bench_collision_scores_each_extra_family_on_its_own(tmp_path):
+    out = tmp_path / "out"
+    argv = ["--out", str(out), "--scenes", "2", "--queries", "20", "--data-dir", str(tmp_path / "data"),
+            "--families", "bookshelf_heldout,bin", "--family-scenes", "2"]  # fmt: skip
+    assert bench_collision(argv) == 0
+    fam = json.loads((out / "collision.json").read_text())["families"]
+    assert sorted(fam) == ["bin", "bookshelf_heldout"]
+    for scores in fam.values():
+        assert scores["scenes"] == 2 and scores["queries"] > 0 and 0.0 <= scores["recall_near"] <= 1.0
+    assert "`bookshelf_heldout`" in (out / "collision.md").read_text() and (out / "collision_families.png").exists()
+
+
+def test_bench_collision_refuses_an_unknown_family(tmp_path, capsys):
+    assert bench_collision(["--out", str(tmp_path / "o"), "--families", "kitchen"]) == 2
+    assert "kitchen" in capsys.readouterr().out and not (tmp_path / "o").exists()
