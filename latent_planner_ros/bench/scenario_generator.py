@@ -13,6 +13,10 @@ Each problem (seeded by (seed, index), so the first N problems of a set do not d
     python -m latent_planner_ros.bench.scenario_generator --out my_set.json --problems 100 --seed 8000
 
 The shipped default set is this command's output with its defaults (DEFAULT_SET).
+
+With a workcell family (`--family bookshelf|bin|cage|undershelf|wall|mixed`, or `workcell` to cycle through
+all six) the problems come from bench/workcell_problems.py instead: furniture around the arm, `--goal
+pregrasp|inside|mixed` goals at or inside it, `--split train|heldout` scene variants, several cameras.
 """
 
 from __future__ import annotations
@@ -158,26 +162,59 @@ def generate_set(config: GeneratorConfig, name: str = "tabletop_heldout", progre
     return ScenarioSet(name, problems, table=True, description=description, extra=extra)
 
 
+def _workcell_main(args: argparse.Namespace) -> int:
+    """The CLI for workcell families (bench/workcell_problems.py); defaults from WorkcellConfig."""
+    from latent_planner_ros.bench.workcell_problems import WorkcellConfig, generate_workcell_set
+
+    config = WorkcellConfig(
+        problems=WorkcellConfig.problems if args.problems is None else args.problems,
+        seed=WorkcellConfig.seed if args.seed is None else args.seed,
+        family=args.family,
+        goal=args.goal,
+        split=args.split,
+        clearance=args.clearance,
+        min_distance=args.min_distance,
+        blocked=not args.any_motion,
+    )
+    name = args.name or f"{config.family}_{config.split}"
+    out = args.out or DEFAULT_SET.parent / f"{name}_{config.problems}.json"
+    path = save_scenarios(generate_workcell_set(config, name), out, DIGITS)
+    print(f"wrote {path} ({path.stat().st_size / 1e3:.0f} kB)", file=sys.stderr)
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
+    from latent_planner_ros.data.workcell_generator import WORKCELL_FAMILIES
+
     p = argparse.ArgumentParser(prog="python -m latent_planner_ros.bench.scenario_generator", description=__doc__)
-    p.add_argument("--out", default=str(DEFAULT_SET), help="output JSON file (default: the shipped default set)")
-    p.add_argument("--problems", type=int, default=GeneratorConfig.problems)
-    p.add_argument("--seed", type=int, default=GeneratorConfig.seed)
-    p.add_argument("--family", default=GeneratorConfig.family, help="scene family: heldout or train")
+    p.add_argument("--out", default=None, help="output JSON file (default: the shipped default set)")
+    p.add_argument("--problems", type=int, default=None, help="default 100 (tabletop), 120 (workcell)")
+    p.add_argument("--seed", type=int, default=None, help="base seed; default 8000 (tabletop), 8500 (workcell)")
+    p.add_argument(
+        "--family",
+        default=GeneratorConfig.family,
+        choices=("heldout", "train", *WORKCELL_FAMILIES, "workcell"),
+        help="tabletop shape family (heldout, train) or workcell family (workcell: all six in turn)",
+    )
+    p.add_argument("--goal", default="mixed", choices=("pregrasp", "inside", "mixed"), help="workcell goals")
+    p.add_argument("--split", default="heldout", choices=("train", "heldout"), help="workcell scene variants")
     p.add_argument("--clearance", type=float, default=GeneratorConfig.clearance, help="[m]")
     p.add_argument("--min-distance", type=float, default=GeneratorConfig.min_distance, help="[m]")
     p.add_argument("--any-motion", action="store_true", help="do not require the direct motion to collide")
-    p.add_argument("--name", default="tabletop_heldout")
+    p.add_argument("--name", default=None, help="set name (default: tabletop_heldout, or <family>_<split>)")
     args = p.parse_args(argv)
+    if args.family not in ("heldout", "train"):
+        return _workcell_main(args)
     config = GeneratorConfig(
-        problems=args.problems,
-        seed=args.seed,
+        problems=GeneratorConfig.problems if args.problems is None else args.problems,
+        seed=GeneratorConfig.seed if args.seed is None else args.seed,
         family=args.family,
         clearance=args.clearance,
         min_distance=args.min_distance,
         blocked=not args.any_motion,
     )
-    path = save_scenarios(generate_set(config, args.name), args.out, DIGITS)
+    out = args.out or str(DEFAULT_SET)
+    path = save_scenarios(generate_set(config, args.name or "tabletop_heldout"), out, DIGITS)
     print(f"wrote {path} ({path.stat().st_size / 1e3:.0f} kB)", file=sys.stderr)
     return 0
 

@@ -10,8 +10,8 @@ Families (WORKCELL_FAMILIES), each one piece of furniture built from box, cylind
 - "mixed": one piece of the five above plus 2-5 tabletop objects of data/scene_generator's shape families.
 
 A piece stands anywhere around the base: its front (opening) plane at 0.3-0.7 m from the base axis at any
-azimuth, facing the base within +-20 deg; every obstacle lies within z in [-0.05, 1.25] m and 1.3 m of the
-base axis, and keeps BASE_CLEARANCE + BASE_RADIUS from the base axis.
+azimuth, facing the base within +-20 deg; every obstacle lies within z in [-0.05, 1.25] m and |x|, |y| <= 1 m
+(the planning clouds' crop box), and keeps BASE_CLEARANCE + BASE_RADIUS (0.305 m) from the base axis.
 
 Train / held-out split (`split`): besides different base seeds (the set generator's business), the held-out
 split uses shapes and poses the train split never makes:
@@ -65,8 +65,8 @@ BASE_CLEARANCE = 0.15
 """no obstacle comes within BASE_RADIUS + this [m] of the base axis (horizontally)"""
 REACH_Z = (-0.05, 1.25)
 """heights [m] every obstacle lies within"""
-REACH_RADIUS = 1.3
-"""largest horizontal distance [m] of any obstacle point from the base axis"""
+REACH_XY = 1.0
+"""largest |x| and |y| [m] of any obstacle point (the planning clouds' crop box, sim_bridge/camera_config.py)"""
 SHOULDER = np.array([0.0, 0.0, 0.333])
 """the arm's shoulder (joint 2 axis) [m]; goals lie within REACH of it"""
 REACH = 0.8
@@ -121,12 +121,12 @@ def keeps_clear_of_base(obstacles: Sequence[Obstacle]) -> bool:
 
 
 def within_reach_bounds(obstacles: Sequence[Obstacle]) -> bool:
-    """Whether every obstacle lies within REACH_Z [m] and REACH_RADIUS [m] of the base axis (tessellated)."""
+    """Whether every obstacle lies within REACH_Z [m] and |x|, |y| <= REACH_XY [m] (tessellated)."""
     for o in obstacles:
         v = triangle_mesh(o)[0]
         if v[:, 2].min() < REACH_Z[0] - 1e-9 or v[:, 2].max() > REACH_Z[1] + 1e-9:
             return False
-        if np.linalg.norm(v[:, :2], axis=1).max() > REACH_RADIUS:
+        if np.abs(v[:, :2]).max() > REACH_XY + 1e-9:
             return False
     return True
 
