@@ -202,6 +202,13 @@ def default_workcell_cameras(
 
 def generate_workcell_problem(index: int, config: WorkcellConfig, max_scenes: int = 100) -> ScenarioProblem:
     """Problem `index` of a set (deterministic in (config.seed, index)); RuntimeError if none is found."""
+    return workcell_problem_and_target(index, config, max_scenes)[0]
+
+
+def workcell_problem_and_target(
+    index: int, config: WorkcellConfig, max_scenes: int = 100
+) -> tuple[ScenarioProblem, Region | Surface]:
+    """Problem `index` and the region (inside goal) or surface (pregrasp goal) its goal was drawn for."""
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, index]))
     family, inside = config.problem_kind(index)
     panda, sampler = load_panda(), FeasibleSampler(rng)
@@ -212,14 +219,13 @@ def generate_workcell_problem(index: int, config: WorkcellConfig, max_scenes: in
         if not targets:
             continue
         search = _GoalSearch(obstacles, config, panda, sampler.checker)
-        goal_q, region = None, None
+        goal_q = None
         for _ in range(config.goal_tries):
             target = targets[int(rng.integers(len(targets)))]
             q = search.inside(rng, target) if inside else search.pregrasp(rng, target)
             if q is not None:
-                region = target if inside else None
                 q = np.round(q, DIGITS)
-                goal_q = q if search.valid(q, region) else None
+                goal_q = q if search.valid(q, target if inside else None) else None
             if goal_q is not None:
                 break
         if goal_q is None:
@@ -235,7 +241,7 @@ def generate_workcell_problem(index: int, config: WorkcellConfig, max_scenes: in
         start = next((s for s in far if not config.blocked or direct_motion_collides(true_labeler, s, goal_q)), None)
         if start is None:
             continue
-        return ScenarioProblem(
+        problem = ScenarioProblem(
             start=start,
             goal_position=goal_p[0],
             goal_quaternion_xyzw=matrix_to_quat(goal_r[0]),
@@ -245,6 +251,7 @@ def generate_workcell_problem(index: int, config: WorkcellConfig, max_scenes: in
             family=family,
             inside=inside,
         )
+        return problem, target
     raise RuntimeError(f"no {family} problem found for index {index} in {max_scenes} scenes")
 
 

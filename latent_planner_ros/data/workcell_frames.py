@@ -127,7 +127,11 @@ def wall(rng: np.random.Generator, heldout: bool = False) -> Furniture:
     x = -rng.uniform(0.12, 0.35)
     gaps = rng.uniform(0.15, 0.3, n)
     span = float(2 * radii.sum() + gaps[:-1].sum())  # of the pillar row along y [m]
-    y = rng.uniform(-length / 2, max(length / 2 - span, -length / 2)) + radii[0]
+    a, b = -length / 2, length / 2  # the pillar row keeps 5 cm off the side wall (and may overhang the other end)
+    if heldout:
+        a, b = (a, side - t / 2 - 0.09) if side > 0 else (side + t / 2 + 0.09, b)  # 4 cm for turned squares
+    slack = rng.uniform(0.0, max(b - a - span, 0.0))
+    y = (b - span - slack if heldout and side > 0 else a + slack) + radii[0]
     heights = rng.uniform(0.5, MAX_HEIGHT, n)
     for k in range(n):
         h, r = float(heights[k]), float(radii[k])

@@ -110,6 +110,7 @@ class Furniture:
         surfaces: patches a pre-grasp pose may face.
         front: (3,) unit horizontal normal of its opening (pointing out of it, towards where a camera should
             stand to look in), `world`.
+        anchor: (3,) [m] the centre of its front plane at table height, `world` (the local origin).
     """
 
     family: str
@@ -117,6 +118,7 @@ class Furniture:
     regions: tuple[Region, ...]
     surfaces: tuple[Surface, ...]
     front: tuple[float, float, float] = (-1.0, 0.0, 0.0)
+    anchor: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def moved(self, rotation: np.ndarray, translation: np.ndarray) -> Furniture:
         """The piece moved by x -> rotation (3, 3) @ x + translation (3,) [m]."""
@@ -127,6 +129,7 @@ class Furniture:
             regions=tuple(r.moved(rot, tr) for r in self.regions),
             surfaces=tuple(s.moved(rot, tr) for s in self.surfaces),
             front=_t3(rot @ np.asarray(self.front)),
+            anchor=_t3(rot @ np.asarray(self.anchor) + tr),
         )
 
 
