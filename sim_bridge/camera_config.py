@@ -1,6 +1,7 @@
 """CameraConfig: the simulated depth camera's intrinsics, pose and point-cloud processing.
 
-Fields map 1:1 onto the ``camera.*`` parameters of the ``sim`` node and ``config/sim.yaml``.
+Fields map 1:1 onto the ``camera.*`` parameters of the ``sim`` node and ``config/sim.yaml`` (and onto the
+``<name>.*`` parameters of every other camera listed in ``cameras``; sim_bridge/camera_rig.py).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ class CameraConfig:
             like a stereo camera); 0 = exact depth.
         dropout: fraction in [0, 1) of pixels dropped at random (missing depth).
         remove_robot: drop pixels that see the robot (segmentation by geom), as the planner expects.
+        rate: [Hz] of this camera's cloud in simulated time; 0 = the sim's cloud_rate.
     """
 
     width: int = 320
@@ -53,6 +55,7 @@ class CameraConfig:
     depth_noise: float = 0.0
     dropout: float = 0.0
     remove_robot: bool = True
+    rate: float = 0.0
 
     def __post_init__(self) -> None:
         check_int("width", self.width, 8, 1280)
@@ -77,6 +80,7 @@ class CameraConfig:
         check_number("dropout", self.dropout, 0.0, 0.99)
         if not isinstance(self.remove_robot, bool):
             raise ConfigError(f"remove_robot: expected true or false, got {self.remove_robot!r}")
+        check_number("rate", self.rate, 0.0, 100.0)
 
     @property
     def focal_px(self) -> float:

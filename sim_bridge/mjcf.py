@@ -8,6 +8,7 @@ so the package works from a fresh pip install. :func:`export_scene` writes one s
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -121,24 +122,37 @@ def _add_target_marker(spec: mujoco.MjSpec, scenario: Scenario) -> None:
     spec.body(OBJECT_PREFIX + obj.name).add_site(pos=local, group=TARGET_SITE_GROUP, **kwargs)
 
 
-def scene_spec(scenario: Scenario, camera: CameraConfig | None = None) -> mujoco.MjSpec:
-    """The editable spec of a scenario's scene with the depth camera placed per `camera`."""
+def extra_camera_name(name: str) -> str:
+    """The MJCF name of the sim's depth camera `name` other than the first (which is DEPTH_CAMERA)."""
+    return f"{DEPTH_CAMERA}_{name}"
+
+
+def scene_spec(
+    scenario: Scenario, camera: CameraConfig | None = None, extra_cameras: Sequence[tuple[str, CameraConfig]] = ()
+) -> mujoco.MjSpec:
+    """The editable spec of a scenario's scene with the depth camera placed per `camera`, and one more camera
+    (MJCF name :func:`extra_camera_name`) per (name, config) of extra_cameras."""
     spec = load_scene_spec()
     spec.modelname = f"panda_{scenario.name}"
     set_camera(spec, DEPTH_CAMERA, camera or CameraConfig())
+    for name, config in extra_cameras:
+        spec.worldbody.add_camera(name=extra_camera_name(name))
+        set_camera(spec, extra_camera_name(name), config)
     for obj in scenario.objects:
         _add_object(spec, obj)
     _add_target_marker(spec, scenario)
     return spec
 
 
-def build_scene(scenario: Scenario, camera: CameraConfig | None = None) -> SceneModel:
-    """Compile a scenario's scene.
+def build_scene(
+    scenario: Scenario, camera: CameraConfig | None = None, extra_cameras: Sequence[tuple[str, CameraConfig]] = ()
+) -> SceneModel:
+    """Compile a scenario's scene (with the depth camera per `camera` and the extra cameras, see scene_spec).
 
     Raises:
         ScenarioError: MuJoCo refused the scene (e.g. a degenerate mesh), with its message.
     """
-    spec = scene_spec(scenario, camera)
+    spec = scene_spec(scenario, camera, extra_cameras)
     try:
         model = spec.compile()
     except ValueError as err:

@@ -3,11 +3,15 @@
 Publishes ``joint_states`` (100 Hz), ``/clock``, ``sim/in_collision`` (at the joint-state rate: true if the
 arm touched the scene during the period) and ``sim/min_distance`` (std_msgs/Float64 at the joint-state rate:
 the arm's ground-truth clearance [m] to the scenario objects, the table excluded, negative when
-penetrating, capped at ``sim.DISTANCE_CUTOFF_M``), ``camera/points``, ``camera/pose`` (the camera's optical
-centre and orientation, with the cloud's stamp) and ``target_pose`` (12.5 Hz); subscribes
+penetrating, capped at ``sim.DISTANCE_CUTOFF_M``), for each depth camera ``<name>`` its cloud on
+``<name>/points`` and its optical centre and orientation on ``<name>/pose`` (with the cloud's stamp; the
+default single camera ``camera``: ``camera/points`` and ``camera/pose``; sim_bridge/camera_rig.py), and
+``target_pose`` (12.5 Hz); subscribes
 ``joint_command``; serves ``sim/reset``. Rates are in simulated time; stamps are simulated time (run
 other nodes with ``use_sim_time:=true``). Parameters: :class:`~sim_bridge.sim_config.SimConfig` (see
-``config/sim.yaml``); they take effect at the next ``sim/reset``, except ``real_time_factor`` (at once).
+``config/sim.yaml``) and, for every listed camera other than ``camera``, ``<name>.*`` (CameraConfig, each
+defaulting to the ``camera.*`` value); they take effect at the next ``sim/reset``, except ``real_time_factor``
+(at once) and ``cameras`` (the list is fixed at start-up).
 
     python -m latent_planner_ros run sim [--record out.gif | --record frames/] [--duration S] \
         [--ros-args -p scenario:=conveyor -p real_time_factor:=0 --params-file config/sim.yaml]
@@ -36,6 +40,8 @@ from std_srvs.srv import Trigger
 
 from latent_planner_ros.robot.limits import JOINT_NAMES
 from msg_adapters import AdapterError, joint_state_to_q, q_to_joint_state, target_to_pose_stamped, xyz_to_cloud
+from sim_bridge.camera_config import CameraConfig
+from sim_bridge.camera_rig import DEFAULT_CAMERA, camera_from_params, camera_params
 from sim_bridge.mjcf import DEPTH_CAMERA, OVERVIEW_CAMERA
 from sim_bridge.params import ConfigError, from_params, to_params
 from sim_bridge.render import Recorder, Snapshotter
@@ -68,15 +74,25 @@ class SimNode(Node):
         for name, value in self._param_names.items():
             self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
         self.config = from_params(SimConfig, {n: self.get_parameter(n).value for n in self._param_names})
-        self.sim = Sim(scenario_of(self.config), self.config)
+        self._camera_params: dict[str, str] = {}  # <name>.<field> -> camera name, of the listed cameras but `camera`
+        self.named_cameras: dict[str, CameraConfig] = {}
+        for camera in self.config.cameras:
+            if camera == DEFAULT_CAMERA:
+                continue
+            defaults = camera_params(camera, self.config.camera)
+            for name, value in defaults.items():
+                self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
+                self._camera_params[name] = camera
+            values = {n: self.get_parameter(n).value for n in defaults}
+            self.named_cameras[camera] = camera_from_params(camera, values, self.config.camera)
+        self.sim = Sim(scenario_of(self.config), self.config, self.named_cameras)
         self.runner = Runner(self.sim, frame_rate=frame_rate)
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self._pub_joints = self.create_publisher(JointState, "joint_states", 10)
         self._pub_clock = self.create_publisher(Clock, "/clock", 10)
         self._pub_collision = self.create_publisher(Bool, "sim/in_collision", 10)
-        self._pub_cloud = self.create_publisher(PointCloud2, "camera/points", 2)
-        self._pub_camera = self.create_publisher(PoseStamped, "camera/pose", 10)
+        self._pub_cameras: dict[str, tuple] = {}  # camera name -> (cloud, pose) publishers, made as cameras appear
         self._pub_target = self.create_publisher(PoseStamped, "target_pose", 10)
         self._pub_distance = self.create_publisher(Float64, "sim/min_distance", 10)
         self.create_subscription(JointState, "joint_command", self._on_command, 10)
@@ -90,19 +106,38 @@ class SimNode(Node):
         self.get_logger().info(
             f"scenario {s.name!r}: {len(s.objects)} objects, target {'yes' if s.target else 'no'}; {s.description}"
         )
+        cameras = ", ".join(f"{c.name} ({c.source}) on {c.points_topic}" for c in self.sim.rig)
+        self.get_logger().info(f"depth cameras: {cameras}")
+        for camera in self.sim.rig:
+            self._camera_publishers(camera.name)
+
+    def _camera_publishers(self, camera: str) -> tuple:
+        """The (cloud, pose) publishers of depth camera `camera`: <camera>/points and <camera>/pose."""
+        if camera not in self._pub_cameras:
+            self._pub_cameras[camera] = (
+                self.create_publisher(PointCloud2, f"{camera}/points", 2),
+                self.create_publisher(PoseStamped, f"{camera}/pose", 10),
+            )
+        return self._pub_cameras[camera]
 
     # ------------------------------------------------------------------ callbacks
     def _on_set_parameters(self, params) -> SetParametersResult:
         ours = {p.name: p.value for p in params if p.name in self._param_names}  # not use_sim_time etc.
+        per_camera = {p.name: p.value for p in params if p.name in self._camera_params}
+        named = dict(self.named_cameras)
         try:
             config = from_params(SimConfig, ours, base=self.config)
+            if tuple(config.cameras) != tuple(self.config.cameras):
+                raise ConfigError("cameras: the camera list is fixed at start-up (restart the node to change it)")
             if {"scenario", "scenario_overrides"} & set(ours):
                 scenario_of(config)  # refuse a scenario that would not load
+            for camera in {self._camera_params[n] for n in per_camera}:
+                named[camera] = camera_from_params(camera, per_camera, named[camera])
         except (ConfigError, ScenarioError) as err:
             return SetParametersResult(successful=False, reason=str(err))
         if config.real_time_factor != self.config.real_time_factor:
             self.runner.set_real_time_factor(config.real_time_factor)
-        self.config = config
+        self.config, self.named_cameras = config, named
         return SetParametersResult(successful=True)
 
     def _on_command(self, msg: JointState) -> None:
@@ -125,7 +160,7 @@ class SimNode(Node):
         previous = self.sim.config
         try:
             scenario = scenario_of(self.config)
-            self.sim.config = self.config
+            self.sim.config, self.sim.cameras = self.config, self.named_cameras
             self.runner.reset(scenario)
         except (ScenarioError, ConfigError) as err:
             self.sim.config = previous  # the old scene keeps running
@@ -148,12 +183,13 @@ class SimNode(Node):
         if tick.collided and not self._was_colliding:
             self.get_logger().info(f"arm touches the scene: {self.sim.contacts()}")
         self._was_colliding = tick.collided
+        frame = self.config.frame_id
+        for name in tick.clouds_due:
+            pub_cloud, pub_pose = self._camera_publishers(name)
+            pub_cloud.publish(xyz_to_cloud(self.sim.point_cloud(name), frame_id=frame, stamp=stamp))
+            eye, orientation = self.sim.camera_pose(name)
+            pub_pose.publish(target_to_pose_stamped(eye, orientation, frame_id=frame, stamp=stamp))
         if tick.cloud_due:
-            points = self.sim.point_cloud()
-            self._pub_cloud.publish(xyz_to_cloud(points, frame_id=self.config.frame_id, stamp=stamp))
-            eye, orientation = self.sim.camera_pose()
-            camera = target_to_pose_stamped(eye, orientation, frame_id=self.config.frame_id, stamp=stamp)
-            self._pub_camera.publish(camera)
             target = self.sim.target_pose()
             if target is not None:
                 self._pub_target.publish(target_to_pose_stamped(*target, frame_id=self.config.frame_id, stamp=stamp))

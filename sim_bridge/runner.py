@@ -1,8 +1,9 @@
 """Real-time pacing and the publication schedule of a running simulation. No ROS.
 
 A :class:`Runner` advances a :class:`~sim_bridge.sim.Sim` one joint-state period at a time and says which
-outputs are due (the camera at ``cloud_rate``, pictures at a recording rate); :meth:`Runner.wait` then
-sleeps until the wall clock catches up with ``real_time_factor`` while letting the caller serve callbacks.
+outputs are due (each depth camera at its rate or ``cloud_rate``, pictures at a recording rate);
+:meth:`Runner.wait` then sleeps until the wall clock catches up with ``real_time_factor`` while letting the
+caller serve callbacks.
 The clock it reports is monotonic across resets (downstream nodes on sim time never see it go back).
 """
 
@@ -38,15 +39,17 @@ class Tick:
 
     Attributes:
         clock: [s] simulated time since the runner started (monotonic across resets).
-        cloud_due: the camera cloud and target pose should be published now.
+        cloud_due: the target pose should be published now (at cloud_rate).
         frame_due: a recording frame should be taken now.
         collided: the arm touched the scene during this period.
+        clouds_due: names of the depth cameras whose cloud should be published now (each at its own rate).
     """
 
     clock: float
     cloud_due: bool
     frame_due: bool
     collided: bool
+    clouds_due: tuple[str, ...] = ()
 
 
 class Runner:
@@ -71,6 +74,7 @@ class Runner:
         c = self.sim.config
         self.steps_per_tick = max(1, round(1.0 / (c.joint_state_rate * c.timestep)))
         self._cloud = RateSchedule(c.cloud_rate)
+        self._camera_schedules = {cam.name: RateSchedule(cam.config.rate or c.cloud_rate) for cam in self.sim.rig}
         self._frames = RateSchedule(self.frame_rate) if self.frame_rate > 0 else None
 
     def _anchor(self, settle: bool = False) -> None:
@@ -105,6 +109,7 @@ class Runner:
             cloud_due=self._cloud.due(t),
             frame_due=self._frames is not None and self._frames.due(t),
             collided=self.sim.collided_since_last_check(),
+            clouds_due=tuple(name for name, schedule in self._camera_schedules.items() if schedule.due(t)),
         )
 
     def wall_deadline(self) -> float | None:

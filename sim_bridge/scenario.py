@@ -23,11 +23,15 @@ with a :class:`ScenarioError` naming the field (e.g. ``objects[2].half_extents``
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+
+from sim_bridge.camera_config import CameraConfig
+from sim_bridge.params import ConfigError, from_params
 
 SHAPES: dict[str, tuple[str, ...]] = {
     "box": ("half_extents",),
@@ -155,12 +159,15 @@ class Scenario:
         objects: the scene objects (the table is part of every scene and not listed).
         target: the end-effector target, or None.
         description: free text.
+        cameras: the scene's own depth cameras (a workcell's fixed cameras), (name, fields) pairs in order: fields
+            are CameraConfig values ({"position": ..., "look_at": ...}) replacing the sim's ``camera.*`` ones.
     """
 
     name: str
     objects: tuple[SceneObject, ...] = ()
     target: Target | None = None
     description: str = ""
+    cameras: tuple[tuple[str, dict], ...] = ()
 
     def object(self, name: str) -> SceneObject:
         """The object called `name`; KeyError naming the known objects otherwise."""
@@ -377,7 +384,35 @@ def object_from_dict(data: Any, where: str = "object") -> SceneObject:
     )
 
 
-SCENARIO_FIELDS = ("name", "description", "objects", "target")
+SCENARIO_FIELDS = ("name", "description", "objects", "target", "cameras")
+CAMERA_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+"""A camera name: one ROS name token (its topics are ``<name>/points`` and ``<name>/pose``)."""
+
+
+def cameras_from_dict(data: Any, where: str = "cameras") -> tuple[tuple[str, dict], ...]:
+    """Validate a scenario's ``cameras`` mapping {name: {CameraConfig field: value}} (order kept).
+
+    Each camera's fields are checked by building a CameraConfig of them over the defaults.
+
+    Raises:
+        ScenarioError: naming the camera and field.
+    """
+    if data is None:
+        return ()
+    if not isinstance(data, Mapping):
+        raise ScenarioError(f"{where}: expected a mapping of camera name -> camera fields")
+    out = []
+    for name, fields in data.items():
+        if not isinstance(name, str) or not CAMERA_NAME.fullmatch(name):
+            raise ScenarioError(f"{where}: camera name {name!r} is not a ROS name token ([A-Za-z][A-Za-z0-9_]*)")
+        if not isinstance(fields, Mapping):
+            raise ScenarioError(f"{where}.{name}: expected a mapping of camera fields (position, look_at, ...)")
+        try:
+            from_params(CameraConfig, dict(fields))
+        except ConfigError as err:
+            raise ScenarioError(f"{where}.{name}.{err}") from None
+        out.append((name, {k: list(v) if isinstance(v, list | tuple) else v for k, v in fields.items()}))
+    return tuple(out)
 
 
 def scenario_from_dict(data: Any, where: str = "") -> Scenario:
@@ -412,4 +447,5 @@ def scenario_from_dict(data: Any, where: str = "") -> Scenario:
             quaternion_xyzw=_quaternion(t, "quaternion_xyzw", default=(1.0, 0.0, 0.0, 0.0)),
             object=follow,
         )
-    return Scenario(name=name, objects=objects, target=target, description=description)
+    cameras = cameras_from_dict(r.raw("cameras", default=None), r._at("cameras"))
+    return Scenario(name=name, objects=objects, target=target, description=description, cameras=cameras)

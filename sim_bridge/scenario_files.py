@@ -23,7 +23,7 @@ import yaml
 
 from sim_bridge.conveyor import ConveyorParams, conveyor
 from sim_bridge.placement import params_from_dict
-from sim_bridge.scenario import Scenario, ScenarioError, scenario_from_dict
+from sim_bridge.scenario import Scenario, ScenarioError, cameras_from_dict, scenario_from_dict
 from sim_bridge.tabletop import TabletopParams, tabletop
 
 PACKAGE = "latent_planner_ros"
@@ -104,7 +104,7 @@ def scenario_from_spec(data: Any, seed: int | None, overrides: Mapping[str, Any]
         if overrides:
             raise ScenarioError(f"overrides {sorted(overrides)} given for a fixed scene (only generators take params)")
         return scenario_from_dict(data)
-    allowed = {"name", "description", "generator", "params"}
+    allowed = {"name", "description", "generator", "params", "cameras"}
     unknown = sorted(set(map(str, data)) - allowed)
     if unknown:
         raise ScenarioError(f"{unknown[0]}: unknown field in a generator file (allowed: {sorted(allowed)})")
@@ -123,7 +123,10 @@ def scenario_from_spec(data: Any, seed: int | None, overrides: Mapping[str, Any]
     else:
         result = function(np.random.default_rng(seed), params_from_dict(params_cls, params, "params"))
     name = data.get("name", kind)
-    return Scenario(name=str(name), objects=result.objects, target=result.target, description=result.description)
+    cameras = cameras_from_dict(data.get("cameras"))
+    return Scenario(
+        name=str(name), objects=result.objects, target=result.target, description=result.description, cameras=cameras
+    )
 
 
 def load_scenario(name_or_path: str, seed: int | None = 0, overrides: Mapping[str, Any] | None = None) -> Scenario:

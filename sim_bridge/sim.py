@@ -4,7 +4,8 @@
     sim.set_command(q_target)          # (7,) rad, validated and clamped
     sim.step(50)                       # 50 physics steps (0.1 s at the default 2 ms)
     state = sim.get_state()            # time, q, dq, end-effector pose
-    cloud = sim.point_cloud()          # (N, 3) float32 in world, robot removed
+    cloud = sim.point_cloud()          # (N, 3) float32 in world, robot removed (the first camera's)
+    clouds = {n: sim.point_cloud(n) for n in sim.camera_names}  # every depth camera's
     sim.in_collision()                 # arm/hand touching an object or the table now
     sim.nearest_object()               # (distance [m], name): the arm's clearance to the scenario objects
 
@@ -13,6 +14,7 @@ Not thread-safe: use it from one thread (the camera's OpenGL context belongs to 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import mujoco
@@ -20,8 +22,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from sim_bridge.camera import DepthCamera
+from sim_bridge.camera_config import CameraConfig
+from sim_bridge.camera_rig import RigCamera, camera_rig
 from sim_bridge.command import CommandResult, JointCommand
-from sim_bridge.mjcf import OBJECT_PREFIX, TCP_SITE, build_scene
+from sim_bridge.mjcf import DEPTH_CAMERA, OBJECT_PREFIX, TCP_SITE, build_scene, extra_camera_name
 from sim_bridge.scenario import Scenario
 from sim_bridge.sim_config import SimConfig
 
@@ -53,22 +57,30 @@ class Sim:
 
     Args:
         scenario: the scene to build.
-        config: settings (the camera, command interface, timestep, initial configuration, seed).
+        config: settings (the cameras, command interface, timestep, initial configuration, seed).
+        cameras: settings of the cameras config.cameras lists other than ``camera`` (sim_bridge/camera_rig.py).
     """
 
-    def __init__(self, scenario: Scenario, config: SimConfig | None = None):
+    def __init__(
+        self, scenario: Scenario, config: SimConfig | None = None, cameras: Mapping[str, CameraConfig] | None = None
+    ):
         self.config = config or SimConfig()
-        self._camera: DepthCamera | None = None
+        self.cameras: dict[str, CameraConfig] = dict(cameras or {})
+        """settings of the cameras config.cameras lists other than ``camera`` (their ``<name>.*`` parameters)"""
+        self._cameras: dict[str, DepthCamera] = {}
+        self.rig: tuple[RigCamera, ...] = ()
         self.reset(scenario)
 
     # ------------------------------------------------------------------ lifecycle
     def reset(self, scenario: Scenario | None = None) -> None:
         """Rebuild the scene (of `scenario`, or the current one) and put the arm at config.initial_q.
 
-        The camera noise restarts from config.seed (-1: fresh entropy).
+        The cameras are rebuilt (camera_rig of config, the scenario and self.cameras); their noise restarts from
+        config.seed (-1: fresh entropy).
         """
         self.scenario = scenario if scenario is not None else self.scenario
-        scene = build_scene(self.scenario, self.config.camera)
+        rig = camera_rig(self.config, self.scenario, self.cameras)
+        scene = build_scene(self.scenario, rig[0].config, [(c.name, c.config) for c in rig[1:]])
         self.model = scene.model
         self.model.opt.timestep = self.config.timestep
         self._robot_geoms = scene.robot_geoms
@@ -91,16 +103,19 @@ class Sim:
         self._place_moving_objects()
         mujoco.mj_forward(self.model, self.data)
         self._touched = self.in_collision()
-        if self._camera is not None:
-            self._camera.close()
-        rng = np.random.default_rng(None if self.config.seed < 0 else self.config.seed)
-        self._camera = DepthCamera(self.model, self._robot_geoms, self.config.camera, rng)
+        self.close()
+        self.rig = rig
+        seed = None if self.config.seed < 0 else self.config.seed
+        for i, cam in enumerate(rig):  # the first camera's noise is seeded as the one camera's always was
+            rng = np.random.default_rng(seed if seed is None or i == 0 else [seed, i])
+            mjcf_name = DEPTH_CAMERA if i == 0 else extra_camera_name(cam.name)
+            self._cameras[cam.name] = DepthCamera(self.model, self._robot_geoms, cam.config, rng, mjcf_name)
 
     def close(self) -> None:
-        """Release the camera's OpenGL context."""
-        if self._camera is not None:
-            self._camera.close()
-            self._camera = None
+        """Release the cameras' OpenGL contexts."""
+        for camera in self._cameras.values():
+            camera.close()
+        self._cameras = {}
 
     # ------------------------------------------------------------------ commands and stepping
     def set_command(self, q: np.ndarray) -> CommandResult:
@@ -136,15 +151,27 @@ class Sim:
             tcp_quaternion_xyzw=np.r_[quat[1:], quat[0]],
         )
 
-    def point_cloud(self) -> np.ndarray:
-        """Depth-camera cloud (N, 3) float32 [m] in world, robot points removed (see CameraConfig)."""
-        return self._camera.point_cloud(self.data)
+    @property
+    def camera_names(self) -> tuple[str, ...]:
+        """Names of the depth cameras, in order (camera_rig: the listed ones, then the scenario's)."""
+        return tuple(c.name for c in self.rig)
 
-    def camera_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        """The depth camera's optical centre (3,) [m] and orientation quaternion_xyzw (4,) in world (MuJoCo's
-        camera frame: x right, y up, looking along -z)."""
-        position, rotation = self._camera.pose(self.data)
+    def point_cloud(self, camera: str | None = None) -> np.ndarray:
+        """Cloud (N, 3) float32 [m] in world of depth camera `camera` (None: the first), robot points removed
+        (see CameraConfig). KeyError for an unknown camera."""
+        return self._camera(camera).point_cloud(self.data)
+
+    def camera_pose(self, camera: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Depth camera `camera`'s (None: the first) optical centre (3,) [m] and orientation quaternion_xyzw (4,)
+        in world (MuJoCo's camera frame: x right, y up, looking along -z)."""
+        position, rotation = self._camera(camera).pose(self.data)
         return position, Rotation.from_matrix(rotation).as_quat()
+
+    def _camera(self, name: str | None) -> DepthCamera:
+        name = self.rig[0].name if name is None else name
+        if name not in self._cameras:
+            raise KeyError(f"no depth camera {name!r} (cameras: {list(self._cameras)})")
+        return self._cameras[name]
 
     def target_pose(self) -> tuple[np.ndarray, np.ndarray] | None:
         """The scenario target now: position (3,) [m] and quaternion_xyzw (4,), or None."""

@@ -1,5 +1,6 @@
 """SimConfig: the simulator's settings. Fields map 1:1 onto the ``sim`` node's ROS parameters and onto
-``config/sim.yaml`` (``sim: ros__parameters:``); the camera's are nested under ``camera.``."""
+``config/sim.yaml`` (``sim: ros__parameters:``); the camera's are nested under ``camera.``. The cameras other
+than ``camera`` that ``cameras`` lists have their own ``<name>.*`` parameters (sim_bridge/camera_rig.py)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from dataclasses import dataclass, field
 from latent_planner_ros.robot.limits import Q_READY, within_limits
 from sim_bridge.camera_config import CameraConfig
 from sim_bridge.params import ConfigError, check_int, check_number, check_vector
+from sim_bridge.scenario import CAMERA_NAME
 
 Vec7 = tuple[float, float, float, float, float, float, float]
 
@@ -23,13 +25,16 @@ class SimConfig:
         timestep: [s] physics step (500 Hz by default).
         real_time_factor: simulated seconds per wall-clock second; 0 runs as fast as possible.
         joint_state_rate: [Hz] of ``joint_states``, ``/clock`` and ``sim/in_collision`` (simulated time).
-        cloud_rate: [Hz] of ``camera/points`` and ``target_pose`` (simulated time).
+        cloud_rate: [Hz] of ``target_pose`` and of every camera's cloud whose own ``rate`` is 0 (simulated time).
         command_period: [s] a new joint target is approached linearly over this time (the planner's period).
         command_timeout: [s] without a fresh command for this long the arm holds where it is; 0: never.
         velocity_scale: joint speed limit as a fraction of the Panda's V_MAX, in (0, 1].
         initial_q: [rad] (7,) configuration at reset.
-        frame_id: frame of the published cloud and poses.
-        camera: the depth camera.
+        frame_id: frame of the published clouds and poses.
+        camera: the depth camera ``camera``, and the defaults of every other camera's settings.
+        cameras: names of the depth cameras, in order; each publishes ``<name>/points`` and ``<name>/pose``.
+            ``camera`` is set by the ``camera.*`` parameters, any other name by its own ``<name>.*`` ones.
+        scenario_cameras: also use the cameras the scenario file defines (after these; a name listed here wins).
     """
 
     scenario: str = "tabletop"
@@ -45,6 +50,8 @@ class SimConfig:
     initial_q: Vec7 = tuple(float(x) for x in Q_READY)
     frame_id: str = "world"
     camera: CameraConfig = field(default_factory=CameraConfig)
+    cameras: tuple[str, ...] = ("camera",)
+    scenario_cameras: bool = True
 
     def __post_init__(self) -> None:
         for name in ("scenario", "frame_id"):
@@ -65,3 +72,22 @@ class SimConfig:
             raise ConfigError(f"initial_q: {list(self.initial_q)} is outside the joint limits")
         if not isinstance(self.camera, CameraConfig):
             raise ConfigError("camera: expected a CameraConfig")
+        check_camera_names("cameras", self.cameras)
+        if not isinstance(self.scenario_cameras, bool):
+            raise ConfigError(f"scenario_cameras: expected true or false, got {self.scenario_cameras!r}")
+
+
+MAX_CAMERAS = 8
+
+
+def check_camera_names(name: str, names) -> None:
+    """ConfigError unless names is a list of 1..MAX_CAMERAS distinct camera names (ROS name tokens) that do not
+    shadow another sim parameter."""
+    if not isinstance(names, tuple | list) or not 1 <= len(names) <= MAX_CAMERAS:
+        raise ConfigError(f"{name}: expected 1 to {MAX_CAMERAS} camera names, got {names!r}")
+    reserved = {f for f in SimConfig.__dataclass_fields__ if f != "camera"}
+    for n in names:
+        if not isinstance(n, str) or not CAMERA_NAME.fullmatch(n) or n in reserved:
+            raise ConfigError(f"{name}: {n!r} is not a camera name (a ROS name token, not a sim parameter name)")
+    if len(set(names)) != len(names):
+        raise ConfigError(f"{name}: {list(names)} lists a camera twice")

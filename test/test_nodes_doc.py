@@ -3,9 +3,10 @@
 Parameters come from the node's source: each `declare_parameter` call is either a literal ("name", default)
 or the loop over `to_params(SomeConfig())`, whose flat names and defaults are the declared ones. Topics and
 services come from the node's `create_publisher` / `create_subscription` / `create_service` calls, whose
-names must be string literals. Numeric valid ranges in the doc are checked at their boundaries against the
-config's validation. A node, parameter, topic or service that is added or renamed fails here until the
-doc says so.
+names are string literals, or names made from parameters: an f-string (`f"{camera}/points"` is documented as
+`<camera>/points`) or a variable (`cloud_topic` is documented as `<cloud_topic>`). Numeric valid ranges in the
+doc are checked at their boundaries against the config's validation. A node, parameter, topic or service that
+is added or renamed fails here until the doc says so.
 """
 
 from __future__ import annotations
@@ -88,6 +89,18 @@ def declared_params(node: str) -> tuple[dict[str, object], type | None]:
     return params, config
 
 
+def _interface_name(node: str, call: ast.Call, attr: str) -> str:
+    """The name argument of a create_* call: the literal, or `<expr>` for each part computed at run time."""
+    name = call.args[1]
+    if isinstance(name, ast.Constant):
+        return name.value
+    if isinstance(name, ast.JoinedStr):
+        parts = [v.value if isinstance(v, ast.Constant) else f"<{ast.unparse(v.value)}>" for v in name.values]
+        return "".join(parts)
+    assert isinstance(name, ast.Name), f"{node}: {attr} at line {call.lineno} needs a literal, f-string or variable"
+    return f"<{name.id}>"
+
+
 def declared_interfaces(node: str) -> set[tuple[str, str, str]]:
     """{(kind, name, "pkg/Type")} from the node's create_* calls (names must be string literals)."""
     tree = _tree(node)
@@ -100,10 +113,9 @@ def declared_interfaces(node: str) -> set[tuple[str, str, str]]:
     out = set()
     for attr, kind in KINDS.items():
         for call in _calls(tree, attr):
-            cls, name = call.args[0], call.args[1]
-            assert isinstance(name, ast.Constant), f"{node}: {attr} at line {call.lineno} needs a literal name"
+            cls, name = call.args[0], _interface_name(node, call, attr)
             assert isinstance(cls, ast.Name) and cls.id in packages, f"{node}: line {call.lineno}: unknown type"
-            out.add((kind, name.value, f"{packages[cls.id]}/{cls.id}"))
+            out.add((kind, name, f"{packages[cls.id]}/{cls.id}"))
     return out
 
 
