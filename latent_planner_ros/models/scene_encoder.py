@@ -42,6 +42,18 @@ class SceneEncoderConfig:
     """width of the direction bins (tangent units, about radians) of the visibility channels"""
     visibility_margin_m: float = 0.03
     """a voxel sample within this range [m] of the observed surface on its ray is neither free nor hidden"""
+    active_margin: int = -1
+    """-1: every voxel of the box is encoded (the first shipped networks); >= 0: only the voxels of the smallest
+    box around the points at or above `floor_m`, grown by this many voxels on every side, computed as if that
+    box were the whole grid; the other voxels' features are 0. A box covering the arm's reach then costs what
+    the part holding objects costs (the network must be trained so)"""
+    active_min_points: int = 1
+    """a voxel widens the active box only if it holds at least this many points at or above the floor (so that
+    stray depth noise far away does not)"""
+    floor_m: float | None = None
+    """None: every point counts; else points below this height [m] in `world` (the table top, known exactly to
+    the planners) give no voxel features and do not widen the active box; they still tell the visibility
+    channels what the camera saw"""
 
     def __post_init__(self) -> None:
         extent = np.asarray(self.bounds_max) - np.asarray(self.bounds_min)
@@ -171,23 +183,46 @@ class SceneEncoder(nn.Module):
             (B, C, nx, ny, nz) voxel features.
         """
         cfg = self.config
-        nx, ny, nz = cfg.grid_shape
-        n_vox = nx * ny * nz
         points = points.to(self.bounds_min.dtype)
         batch = torch.zeros(len(points), dtype=torch.long, device=points.device) if batch is None else batch
+        if cfg.active_margin >= 0:
+            return self._forward_active(points, batch, n_batch, eyes, point_eyes)
+        return self._encode_grid(points, batch, n_batch, eyes, point_eyes, self.samples, self.bounds_min)
+
+    def _encode_grid(
+        self,
+        points: torch.Tensor,
+        batch: torch.Tensor,
+        n_batch: int,
+        eyes: torch.Tensor | None,
+        point_eyes: torch.Tensor | None,
+        samples: torch.Tensor,
+        lower: torch.Tensor,
+        shape: tuple[int, int, int] | None = None,
+        feature_points: torch.Tensor | None = None,
+    ) -> torch.Tensor:
+        """The encoder over the grid of `shape` voxels (default: the config's) from the corner `lower` (3,) [m],
+        whose sample points are `samples` (V, S, 3); `feature_points` (N,) bool marks the points that give voxel
+        features (default: all; every point counts for visibility). Returns (B, C, *shape)."""
+        cfg = self.config
+        nx, ny, nz = cfg.grid_shape if shape is None else shape
+        n_vox = nx * ny * nz
+        dims = torch.tensor([nx, ny, nz], device=points.device)
         if cfg.visibility and point_eyes is not None:
             seen = vis.visibility_grid_per_point(
-                points, batch, n_batch, point_eyes.to(points.dtype).reshape(-1, 3), self.samples, self.centre,
+                points, batch, n_batch, point_eyes.to(points.dtype).reshape(-1, 3), samples, self.centre,
                 cfg.visibility_bin, cfg.visibility_margin_m,
             )  # fmt: skip
         elif cfg.visibility:
             eyes = torch.full((n_batch, 3), float("nan")) if eyes is None else eyes.to(points.dtype).reshape(-1, 3)
             seen = vis.visibility_grid(
-                points, batch, eyes, self.samples, self.centre, cfg.visibility_bin, cfg.visibility_margin_m
+                points, batch, eyes, samples, self.centre, cfg.visibility_bin, cfg.visibility_margin_m
             )
-        cell = (points - self.bounds_min) / cfg.voxel_size
+        cell = (points - lower) / cfg.voxel_size
         idx = torch.floor(cell).long()
-        inside = torch.all((idx >= 0) & (idx < self.grid_dims), dim=1)
+        inside = torch.all((idx >= 0) & (idx < dims), dim=1)
+        if feature_points is not None:
+            inside &= feature_points
         idx, cell, batch = idx[inside], cell[inside], batch[inside]
         offset = 2.0 * (cell - idx.to(cell.dtype) - 0.5)  # in [-1, 1] within the voxel
         feats = self._point_features(offset)
@@ -204,6 +239,43 @@ class SceneEncoder(nn.Module):
         for layer in self.convs:  # without autograd: the same convolutions, about twice as fast
             grid = conv3d_by_slices(grid, layer) if isinstance(layer, nn.Conv3d) else layer(grid)
         return grid.contiguous()
+
+    def _forward_active(
+        self,
+        points: torch.Tensor,
+        batch: torch.Tensor,
+        n_batch: int,
+        eyes: torch.Tensor | None,
+        point_eyes: torch.Tensor | None,
+    ) -> torch.Tensor:
+        """forward() with `active_margin` >= 0: each cloud encoded over its own active box (see the config),
+        placed into a zero grid (B, C, nx, ny, nz)."""
+        cfg = self.config
+        nx, ny, nz = cfg.grid_shape
+        out = torch.zeros(n_batch, cfg.channels, nx, ny, nz, dtype=points.dtype, device=points.device)
+        idx = torch.floor((points - self.bounds_min) / cfg.voxel_size).long()
+        floor = float("-inf") if cfg.floor_m is None else cfg.floor_m
+        solid = torch.all((idx >= 0) & (idx < self.grid_dims), dim=1) & (points[:, 2] >= floor)
+        samples = self.samples.reshape(nx, ny, nz, *self.samples.shape[1:])
+        for b in range(n_batch):
+            mine = batch == b
+            cells, counts = torch.unique(idx[mine & solid], dim=0, return_counts=True)
+            cells = cells[counts >= cfg.active_min_points]
+            if not len(cells):
+                continue  # nothing above the floor: no features anywhere
+            lo = (cells.amin(0) - cfg.active_margin).clamp_min(0)
+            hi = torch.minimum(cells.amax(0) + cfg.active_margin + 1, self.grid_dims)
+            (x0, y0, z0), (x1, y1, z1) = lo.tolist(), hi.tolist()
+            sub = samples[x0:x1, y0:y1, z0:z1].reshape(-1, *self.samples.shape[1:])
+            mine_eyes = None if eyes is None else eyes.reshape(-1, 3)[b : b + 1]
+            mine_point_eyes = None if point_eyes is None else point_eyes.reshape(-1, 3)[mine]
+            pts = points[mine]
+            out[b, :, x0:x1, y0:y1, z0:z1] = self._encode_grid(
+                pts, torch.zeros(len(pts), dtype=torch.long, device=pts.device), 1, mine_eyes, mine_point_eyes,
+                sub, self.bounds_min + lo.to(pts.dtype) * cfg.voxel_size, (x1 - x0, y1 - y0, z1 - z0),
+                pts[:, 2] >= floor,
+            )[0]  # fmt: skip
+        return out
 
     def _point_features(self, offset: torch.Tensor) -> torch.Tensor:
         """point_mlp of offsets (N, 3) -> (N, point_features). Without autograd, the first layer (3 inputs) is

@@ -18,7 +18,7 @@ import json
 import shlex
 import sys
 import time
-from dataclasses import fields
+from dataclasses import fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +30,7 @@ from latent_planner_ros.data.dataset import CollisionData, DatasetConfig, genera
 from latent_planner_ros.data.scene_families import check_family
 from latent_planner_ros.models.checkpoint import CheckpointError, load_checkpoint
 from latent_planner_ros.models.collision_io import file_sha256
+from latent_planner_ros.models.collision_net import CollisionNet
 from latent_planner_ros.models.collision_net_config import CollisionNetConfig
 from latent_planner_ros.models.scene_encoder import SceneEncoderConfig
 from latent_planner_ros.models.vae_io import load_vae, shipped_vae_path
@@ -76,6 +77,9 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, TrainCollisionConfi
     p.add_argument(
         "--box-max", type=float, nargs=3, metavar=("X", "Y", "Z"), help="with --grow/--init: upper corner [m]"
     )
+    p.add_argument("--active-margin", type=int, help="encode only the box around the points, grown by N voxels")
+    p.add_argument("--active-min-points", type=int, help="points a voxel needs to widen the active box")
+    p.add_argument("--floor-m", type=float, help="points below this height [m] give no voxel features")
     p.add_argument(
         "--no-visibility",
         action="store_true",
@@ -122,7 +126,18 @@ def initial_network(args: argparse.Namespace):
     enc = net.config.encoder
     if args.box_min or args.box_max:
         net = grow_box(net, args.box_min or enc.bounds_min, args.box_max or enc.bounds_max)
+    changes = active_box_changes(args)
+    if changes:  # the active box changes what the encoder computes, not its weights
+        tuned = CollisionNet(replace(net.config, encoder=replace(net.config.encoder, **changes)))
+        tuned.load_state_dict(net.state_dict())
+        net = tuned
     return net
+
+
+def active_box_changes(args: argparse.Namespace) -> dict:
+    """The encoder fields set by --active-margin, --active-min-points and --floor-m (models/scene_encoder.py)."""
+    names = {"active_margin": args.active_margin, "active_min_points": args.active_min_points, "floor_m": args.floor_m}
+    return {k: v for k, v in names.items() if v is not None}
 
 
 def vae_info(stem: Path) -> dict:
@@ -147,7 +162,8 @@ def train(args: argparse.Namespace, config: TrainCollisionConfig, argv: list[str
         return 2
     args.out.mkdir(parents=True, exist_ok=True)
     net_config = CollisionNetConfig(
-        encoder=SceneEncoderConfig(visibility=not args.no_visibility), latent=vae.config.latent
+        encoder=SceneEncoderConfig(visibility=not args.no_visibility, **active_box_changes(args)),
+        latent=vae.config.latent,
     )
     init = None
     if args.init is not None:

@@ -142,10 +142,24 @@ def test_cli_init_fine_tunes_a_trained_network_over_a_larger_box(workspace, tmp_
     common = ["--vae", str(workspace / "vae"), "--data", str(workspace / "train"), "--val-dir", str(workspace),
               "--val-scenes", "1", "--scenes-per-step", "2", "--queries-per-scene", "16", "--eval-every", "2",
               "--threads", "1", "--out", str(out)]  # fmt: skip
-    box = ["--box-min", "-1.0", "-1.0", "-0.05", "--box-max", "1.0", "1.0", "1.25"]
+    box = [
+        "--box-min",
+        "-1.0",
+        "-1.0",
+        "-0.05",
+        "--box-max",
+        "1.0",
+        "1.0",
+        "1.25",
+        "--active-margin",
+        "2",
+        "--floor-m",
+        "0.02",
+    ]
     assert main(["--iterations", "2", "--init", str(parent.with_suffix("")), *box, *common]) == 0
     net, meta = load_collision_net(out / "best")
-    assert net.config.encoder.bounds_min == (-1.0, -1.0, -0.05) and net.config.encoder.bounds_max == (1.0, 1.0, 1.25)
+    enc = net.config.encoder
+    assert enc.bounds_min == (-1.0, -1.0, -0.05) and enc.bounds_max == (1.0, 1.0, 1.25) and enc.active_margin == 2
     assert meta["init"]["parent"] == str(parent.with_suffix("")) and "--init" in meta["training"]["command"]
     off_grid = ["--box-min", "-0.95", "-1.0", "-0.05"]
     assert main(["--iterations", "1", "--init", str(parent.with_suffix("")), *off_grid, *common]) == 2
