@@ -52,6 +52,12 @@ class TrainCollisionConfig:
     unknown_eye_prob: float = 0.1
     """probability that a training cloud's camera origin is withheld (a network with visibility channels then
     still works, less well, for clouds whose origin is unknown)"""
+    views: tuple[float, float] = (1, 1)
+    """inclusive range of the number of camera views fused into one training cloud (each point keeps the origin
+    of its own camera, as the nodes fuse several cameras)"""
+    aim_at_objects: float = 0.0
+    """probability that a view looks at one of the scene's obstacles instead of the workspace centre (workcells
+    stand all around the base)"""
     threshold: float = 0.2
     """decision threshold on p(collision) for the reported precision/recall (the planner's hard check:
     planning/learned_backend.py CHECK_THRESHOLD)"""

@@ -13,6 +13,7 @@ import torch.nn.functional as F
 
 from latent_planner_ros.data.camera import CameraConfig, CameraIntrinsics
 from latent_planner_ros.data.dataset import CollisionData
+from latent_planner_ros.data.obstacle_geometry import triangle_mesh
 from latent_planner_ros.data.render import scene_view, voxel_downsample
 from latent_planner_ros.models.checkpoint import load_checkpoint, load_state_into, save_checkpoint
 from latent_planner_ros.models.collision_io import save_collision_net
@@ -145,17 +146,46 @@ class CollisionTrainer:
         return np.concatenate([near, self.rng.choice(pool, n - n_near)])
 
     def _cloud(self, scene: int) -> tuple[np.ndarray, np.ndarray]:
-        """A training cloud (N, 3) of a scene (random viewpoint, randomised intrinsics and density) and its
-        camera origin (3,) [m], all NaN with probability `unknown_eye_prob`."""
+        """A training cloud (N, 3) of a scene (config.views random viewpoints fused, randomised intrinsics and
+        density) and the origin (N, 3) [m] of the camera that saw each point, all NaN with probability
+        `unknown_eye_prob`."""
+        c, rng = self.config, self.rng
+        n_views = int(rng.integers(int(c.views[0]), int(c.views[1]) + 1))
+        clouds, origins = [], []
+        for _ in range(n_views):
+            pts, eye = self._view(self.data.scenes[scene])
+            clouds.append(pts)
+            origins.append(np.repeat(eye[None].astype(np.float32), len(pts), 0))
+        pts, eyes = np.concatenate(clouds), np.concatenate(origins).reshape(-1, 3)
+        if rng.random() < c.unknown_eye_prob:
+            eyes[:] = np.nan
+        return pts, eyes
+
+    def _view(self, scene) -> tuple[np.ndarray, np.ndarray]:
+        """One random view (N, 3) of a scene, thinned or voxel-downsampled, and its camera origin (3,) [m]."""
         c, rng = self.config, self.rng
         scale = rng.uniform(*c.image_scale)
         intrinsics = CameraIntrinsics.from_fov(int(192 * scale), int(144 * scale), rng.uniform(*c.fovy_deg))
-        pts, eye = scene_view(self.data.scenes[scene], rng, replace(self.camera, intrinsics=intrinsics))
-        if rng.random() < c.unknown_eye_prob:
-            eye = np.full(3, np.nan)
+        camera = replace(self.camera, intrinsics=intrinsics)
+        if scene.obstacles and rng.random() < c.aim_at_objects:
+            target = triangle_mesh(scene.obstacles[int(rng.integers(len(scene.obstacles)))])[0].mean(0)
+            camera = replace(camera, target=tuple(float(v) for v in target))
+        pts, eye = scene_view(scene, rng, camera)
         if rng.random() < c.voxel_downsample_prob:
             return voxel_downsample(pts, rng.uniform(*c.voxel_downsample_size)), eye
         return pts[rng.random(len(pts)) < rng.uniform(*c.point_keep)], eye
+
+    def _encode(self, clouds: list[torch.Tensor], origins: list[np.ndarray], batch: torch.Tensor) -> torch.Tensor:
+        """Feature grids (S, C, nx, ny, nz) of S clouds with their per-point camera origins (N_k, 3): one origin
+        per cloud where each cloud has one camera (the computation the planners use then), else per point."""
+        points, batch = torch.cat(clouds).to(self.device), batch.to(self.device)
+        singles = [o[:1] if len(o) and (np.all(o == o[:1]) or np.isnan(o).all()) else None for o in origins]
+        if all(s is not None or not len(o) for s, o in zip(singles, origins, strict=True)):
+            rows = [s[0] if s is not None else np.full(3, np.nan, dtype=np.float32) for s in singles]
+            eyes = torch.as_tensor(np.stack(rows), dtype=torch.float32, device=self.device)
+            return self.net.encoder(points, batch, len(clouds), eyes)
+        per_point = torch.as_tensor(np.concatenate(origins), dtype=torch.float32, device=self.device)
+        return self.net.encoder(points, batch, len(clouds), point_eyes=per_point)
 
     def _tensors(
         self, rows: np.ndarray, data: CollisionData | None = None
@@ -177,8 +207,7 @@ class CollisionTrainer:
         views = [self._cloud(i) for i in scenes]
         clouds = [torch.as_tensor(v[0]) for v in views]
         batch = torch.cat([torch.full((len(p),), k, dtype=torch.long) for k, p in enumerate(clouds)])
-        eyes = torch.as_tensor(np.stack([v[1] for v in views]), dtype=torch.float32, device=self.device)
-        grid = self.net.encoder(torch.cat(clouds).to(self.device), batch.to(self.device), s, eyes)
+        grid = self._encode(clouds, [v[1] for v in views], batch)
         n_hard = int(round(m * c.hard_fraction))
         rows = np.stack([self._pick(i, m - n_hard) for i in scenes])
         if n_hard:

@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pytest
 import torch
 
@@ -169,3 +170,14 @@ def test_cli_init_fine_tunes_a_trained_network_over_a_larger_box(workspace, tmp_
 def test_generate_refuses_an_unknown_family(tmp_path, capsys):
     assert main(["--generate", "2", "--family", "kitchen", "--data", str(tmp_path / "d")]) == 2
     assert "kitchen" in capsys.readouterr().err and not (tmp_path / "d").exists()
+
+
+def test_training_clouds_fuse_several_views_each_point_with_its_camera(workspace):
+    cfg = TrainCollisionConfig(data=str(workspace / "train"), views=(2, 2), aim_at_objects=1.0, unknown_eye_prob=0.0,
+                               scenes_per_step=2, queries_per_scene=16, hard_fraction=0.0, threads=1)  # fmt: skip
+    data = CollisionData.load(workspace / "train")
+    vae = RobotStateVAE(VaeConfig(hidden=16, layers=1)).eval()
+    trainer = CollisionTrainer(cfg, SMALL_NET, vae, data, {}, workspace / "run_views", torch.device("cpu"))
+    points, origins = trainer._cloud(0)
+    assert points.shape == origins.shape and len(np.unique(origins, axis=0)) == 2
+    assert np.isfinite(trainer.step(1e-3)["loss"])
