@@ -1,12 +1,17 @@
 """scene_encoder node: point clouds -> voxel scene embeddings for the learned collision backend.
 
-Subscribes camera/points (sensor_msgs/PointCloud2, frame `world`, robot points removed) and camera/pose
-(geometry_msgs/PoseStamped, frame `world`: the camera's optical centre, for a network with visibility
-channels). For each cloud it drops NaN/inf points, crops to the encoder's workspace bounds, downsamples clouds
-above max_points, encodes (with the newest camera origin if its stamp is within origin_max_age_s of the
-cloud's, else with the origin unknown) and publishes scene_embedding (PointCloud2 of voxel centres with
-float32 fields f0..fC-1, frame `world`, stamp of the input cloud). An empty cloud is encoded as an empty
-scene (status WARN); a malformed one is refused (status ERROR, nothing published). ~/status
+Subscribes each topic of `cloud_topics` (sensor_msgs/PointCloud2, frame `world`, robot points removed; default
+camera/points) and, beside each, its camera's pose topic (geometry_msgs/PoseStamped, frame `world`: the optical
+centre, for a network with visibility channels; `camera/points` -> `camera/pose`). It keeps the newest cloud of
+each topic and, once every camera that is not stale has delivered a new cloud (at once with one camera), fuses
+them in `world` with one camera origin per point (perception/cloud_fusion.py): a topic whose newest cloud is
+stamped more than cloud_max_age_s from the newest one is left out and named on the status (WARN). It drops
+NaN/inf points, crops to the encoder's workspace bounds, downsamples clouds above max_points (each camera's
+points apart, so they keep their origin), encodes (each point with its camera's newest pose if stamped within
+origin_max_age_s of its cloud, else with the origin unknown) and publishes scene_embedding (PointCloud2 of voxel
+centres with float32 fields f0..fC-1, frame `world`, stamp of the cloud that completed the round). An empty cloud
+is encoded as an empty scene (status WARN); a malformed cloud, or one in another frame, is refused with the topic
+and the reason (status ERROR, logged, nothing published; the topic keeps its previous cloud). ~/status
 (diagnostic_msgs/DiagnosticArray) at status_rate_hz.
 Parameters: SceneEncoderNodeConfig (config/scene_encoder.yaml), validated; a bad value is refused with a reason.
 
@@ -17,7 +22,9 @@ from __future__ import annotations
 
 import sys
 import time
+from functools import partial
 
+import numpy as np
 import torch
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
@@ -30,7 +37,7 @@ from latent_planner_ros.models.collision_io import load_scene_encoder
 from latent_planner_ros.models.scene_encoder import SceneEncoder
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.scene_encoder_config import SceneEncoderNodeConfig
-from latent_planner_ros.perception.camera_origin import CameraOrigin
+from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused, pose_topic_of
 from latent_planner_ros.perception.scene_input import SceneInputMonitor, prepare_cloud
 from msg_adapters import AdapterError, cloud_to_xyz, embedding_to_cloud, pose_stamped_to_target, status_array
 from sim_bridge.params import ConfigError, from_params, to_params
@@ -52,19 +59,23 @@ class SceneEncoderNode(Node):
         params = {n: self.get_parameter(n).value for n in self._param_names}
         self.config = from_params(SceneEncoderNodeConfig, params)
         self.encoder = _load_encoder(self.config.checkpoint)
-        self.monitor = SceneInputMonitor(self.config.stale_after_s)
-        self.origin = CameraOrigin(self.config.origin_max_age_s)
+        cfg = self.config
+        self.monitor = SceneInputMonitor(cfg.stale_after_s, ", ".join(cfg.cloud_topics))
+        self.fusion = CloudFusion(cfg.cloud_topics, FRAME, cfg.cloud_max_age_s, cfg.origin_max_age_s)
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self.pub_embedding = self.create_publisher(PointCloud2, "scene_embedding", 2)
         self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
-        self.create_subscription(PointCloud2, "camera/points", self._on_cloud, 2)
-        self.create_subscription(PoseStamped, "camera/pose", self._on_camera_pose, 10)
+        for cloud_topic in cfg.cloud_topics:
+            self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2)
+            pose_topic = pose_topic_of(cloud_topic)
+            self.create_subscription(PoseStamped, pose_topic, partial(self._on_camera_pose, cloud_topic), 10)
         self._status_timer = self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)
         enc = self.encoder.config
         self.get_logger().info(
             f"scene encoder ready: {self.config.checkpoint or 'shipped checkpoint'}, grid {enc.grid_shape} "
-            f"of {enc.voxel_size} m voxels, {enc.channels} channels, bounds {enc.bounds_min}..{enc.bounds_max}"
+            f"of {enc.voxel_size} m voxels, {enc.channels} channels, bounds {enc.bounds_min}..{enc.bounds_max}; "
+            f"clouds from {', '.join(cfg.cloud_topics)}"
         )
 
     def _now(self) -> float:
@@ -75,6 +86,8 @@ class SceneEncoderNode(Node):
         ours = {p.name: p.value for p in params if p.name in self._param_names}  # not use_sim_time etc.
         try:
             config = from_params(SceneEncoderNodeConfig, ours, base=self.config)
+            if tuple(config.cloud_topics) != tuple(self.config.cloud_topics):
+                raise ConfigError("cloud_topics: the subscriptions are fixed at start-up (restart the node)")
             encoder = _load_encoder(config.checkpoint) if config.checkpoint != self.config.checkpoint else None
         except (ConfigError, CheckpointError) as err:
             return SetParametersResult(successful=False, reason=str(err))
@@ -85,7 +98,8 @@ class SceneEncoderNode(Node):
             self.destroy_timer(self._status_timer)
             self._status_timer = self.create_timer(1.0 / config.status_rate_hz, self._publish_status)
         self.monitor.stale_after_s = config.stale_after_s
-        self.origin.max_age_s = config.origin_max_age_s
+        self.fusion.set_origin_max_age(config.origin_max_age_s)
+        self.fusion.max_age_s = config.cloud_max_age_s
         self.config = config
         return SetParametersResult(successful=True)
 
@@ -94,41 +108,58 @@ class SceneEncoderNode(Node):
         self.monitor.on_refused(self._now(), reason, int(msg.width) * int(msg.height))
         self.get_logger().warning(reason, throttle_duration_sec=2.0)
 
-    def _on_camera_pose(self, msg: PoseStamped) -> None:
+    def _on_camera_pose(self, cloud_topic: str, msg: PoseStamped) -> None:
         try:
             pose = pose_stamped_to_target(msg, FRAME)
-        except AdapterError as err:  # the previous origin stays; the reason is reported
-            self.monitor.last_error = f"camera/pose refused: {err}"
-            self.get_logger().warning(self.monitor.last_error, throttle_duration_sec=2.0)
-            return
-        self.origin.on_pose(pose.position, _seconds(msg.header.stamp))
+            self.fusion.add_pose(cloud_topic, pose.position, msg.header.frame_id, _seconds(msg.header.stamp))
+        except (AdapterError, CloudRefused) as err:  # the previous origin stays; the reason is reported
+            text = str(err) if isinstance(err, CloudRefused) else f"{pose_topic_of(cloud_topic)} refused: {err}"
+            self.monitor.last_error = text
+            self.get_logger().warning(text, throttle_duration_sec=2.0)
 
-    def _on_cloud(self, msg: PointCloud2) -> None:
-        if msg.header.frame_id != FRAME:
-            self._refuse(msg, f"camera/points refused: frame {msg.header.frame_id!r}, expected {FRAME!r}")
-            return
+    def _on_cloud(self, cloud_topic: str, msg: PointCloud2) -> None:
         try:
+            self.fusion.check(cloud_topic, msg.header.frame_id)
             points = cloud_to_xyz(msg)
-        except AdapterError as err:
-            self._refuse(msg, f"camera/points refused: {err}")
+            n_in = int(msg.width) * int(msg.height)  # cloud_to_xyz already dropped NaN/inf points
+            self.fusion.add_cloud(cloud_topic, points, msg.header.frame_id, _seconds(msg.header.stamp), n_in)
+        except CloudRefused as err:
+            self._refuse(msg, str(err))
             return
+        except AdapterError as err:
+            self._refuse(msg, f"{cloud_topic} refused: {err}")
+            return
+        if self.fusion.round_complete():
+            self._encode(msg.header.stamp)
+
+    def _encode(self, stamp) -> None:
+        """Fuse the newest clouds, encode them and publish the embedding with `stamp`."""
         t0 = time.perf_counter()
+        fused = self.fusion.fuse()
         enc, cfg = self.encoder.config, self.config
-        n_in = int(msg.width) * int(msg.height)  # cloud_to_xyz already dropped NaN/inf points
+        n_in = sum(self.fusion.received[t] for t in fused.sources)
+        origin = fused.origin_summary()
+        origins = fused.origins if enc.visibility and np.isfinite(fused.origins).any() else None
+        if not enc.visibility:
+            origin = "not used by this network"
         try:
-            cloud = prepare_cloud(points, enc.bounds_min, enc.bounds_max, cfg.max_points, cfg.downsample_voxel, n_in)
-            eye, origin = self.origin.for_cloud(_seconds(msg.header.stamp))
-            if not self.encoder.config.visibility:
-                eye, origin = None, "not used by this network"
+            cloud = prepare_cloud(fused.points, enc.bounds_min, enc.bounds_max, cfg.max_points, cfg.downsample_voxel,
+                                  n_in, origins)  # fmt: skip
             with torch.no_grad():
-                centres, features = self.encoder.encode(cloud.points, eye).to_points()
-            out = embedding_to_cloud(centres, features, frame_id=FRAME, stamp=msg.header.stamp)
+                centres, features = self.encoder.encode(cloud.points, cloud.origins).to_points()
+            out = embedding_to_cloud(centres, features, frame_id=FRAME, stamp=stamp)
         except (AdapterError, ValueError, RuntimeError) as err:  # never stop on one bad cloud
-            self._refuse(msg, f"camera/points not encoded: {err}")
+            reason = f"{', '.join(fused.sources)} not encoded: {err}"
+            self.monitor.on_refused(self._now(), reason, n_in)
+            self.get_logger().warning(reason, throttle_duration_sec=2.0)
             return
         encode_ms = (time.perf_counter() - t0) * 1000.0
         self.pub_embedding.publish(out)
-        self.monitor.on_encoded(self._now(), cloud, encode_ms, origin)
+        stale = ", ".join(f"{t} ({gap:.2f} s behind)" for t, gap in fused.stale.items())
+        sources = ", ".join(f"{t} ({n})" for t, n in zip(fused.sources, fused.counts, strict=True))
+        self.monitor.on_encoded(self._now(), cloud, encode_ms, origin, sources, stale)
+        if stale:
+            self.get_logger().warning(f"clouds left out as stale: {stale}", throttle_duration_sec=5.0)
 
     def _publish_status(self) -> None:
         report = self.monitor.report(self._now())

@@ -20,7 +20,12 @@ class SceneEncoderNodeConfig:
     status_rate_hz: float = 2.0
     """status publishing rate [Hz]"""
     origin_max_age_s: float = 1.0
-    """[s] a camera/pose stamped further than this from a cloud's stamp is not used with it; 0 = any age"""
+    """[s] a camera's pose stamped further than this from its cloud's stamp is not used with it; 0 = any age"""
+    cloud_topics: tuple[str, ...] = ("camera/points",)
+    """the cloud topics fused into one scene (one per camera, frame `world`); each camera's origin comes from the
+    pose topic beside its cloud (`camera/points` -> `camera/pose`); fixed at start-up"""
+    cloud_max_age_s: float = 0.5
+    """[s] a topic's newest cloud stamped further than this from the newest cloud is left out as stale; 0 = never"""
 
     def __post_init__(self) -> None:
         if not isinstance(self.checkpoint, str):
@@ -30,3 +35,18 @@ class SceneEncoderNodeConfig:
         check_number("stale_after_s", self.stale_after_s, 0.0, 3600.0, open_low=True)
         check_number("status_rate_hz", self.status_rate_hz, 0.0, 100.0, open_low=True)
         check_number("origin_max_age_s", self.origin_max_age_s, 0.0, 3600.0)
+        check_topics("cloud_topics", self.cloud_topics)
+        check_number("cloud_max_age_s", self.cloud_max_age_s, 0.0, 3600.0)
+
+
+MAX_CLOUD_TOPICS = 8
+
+
+def check_topics(name: str, topics) -> None:
+    """ConfigError unless topics is a list of 1..MAX_CLOUD_TOPICS distinct non-empty topic names."""
+    ok = isinstance(topics, tuple | list) and 1 <= len(topics) <= MAX_CLOUD_TOPICS
+    ok = ok and all(isinstance(t, str) and t.strip() and " " not in t for t in topics)
+    if not ok:
+        raise ConfigError(f"{name}: expected 1 to {MAX_CLOUD_TOPICS} topic names, got {topics!r}")
+    if len(set(topics)) != len(topics):
+        raise ConfigError(f"{name}: {list(topics)} lists a topic twice")

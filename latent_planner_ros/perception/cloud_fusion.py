@@ -111,6 +111,9 @@ class CloudFusion:
         self.max_age_s = float(max_age_s)
         self._clouds: dict[str, _Held] = {}
         self._origins = {t: CameraOrigin(origin_max_age_s, pose_topic_of(t)) for t in topics}
+        self._round: set[str] = set()  # topics that delivered since the last fuse()
+        self.received: dict[str, int] = {}
+        """points received per topic in its newest accepted cloud (non-finite ones included, when given)"""
         self.newest: str | None = None
         """The topic of the cloud accepted last."""
 
@@ -126,8 +129,11 @@ class CloudFusion:
         if frame_id != self.frame_id:
             raise CloudRefused(f"{topic} refused: frame {frame_id!r}, expected {self.frame_id!r}")
 
-    def add_cloud(self, topic: str, points: np.ndarray, frame_id: str, stamp_s: float) -> None:
-        """Keep points (N, 3) [m] (NaN/inf rows are dropped) as the newest cloud of topic, stamped stamp_s [s].
+    def add_cloud(
+        self, topic: str, points: np.ndarray, frame_id: str, stamp_s: float, points_in: int | None = None
+    ) -> None:
+        """Keep points (N, 3) [m] (NaN/inf rows are dropped) as the newest cloud of topic, stamped stamp_s [s];
+        points_in: the points the message held, when non-finite ones were dropped upstream (default N).
 
         Raises:
             CloudRefused: an unknown topic, another frame, or points that are not (N, 3); the topic keeps its
@@ -137,8 +143,10 @@ class CloudFusion:
         pts = np.asarray(points, dtype=np.float32)
         if pts.ndim != 2 or pts.shape[1] != 3:
             raise CloudRefused(f"{topic} refused: expected points of shape (N, 3), got {pts.shape}")
+        self.received[topic] = len(pts) if points_in is None else max(int(points_in), len(pts))
         pts = pts[np.all(np.isfinite(pts), axis=1)]
         self._clouds[topic] = _Held(pts, float(stamp_s))
+        self._round.add(topic)
         self.newest = topic
 
     def add_pose(self, topic: str, position: np.ndarray, frame_id: str, stamp_s: float) -> None:
@@ -157,30 +165,22 @@ class CloudFusion:
             raise CloudRefused(f"{pose_topic} refused: position {p.tolist()} is not 3 finite numbers")
         self._origins[topic].on_pose(p, stamp_s)
 
-    def clear(self) -> None:
-        """Forget the held clouds (origins stay: cameras are fixed)."""
-        self._clouds.clear()
-        self.newest = None
-
-    def round_complete(self, since_stamp_s: float) -> bool:
-        """Whether every topic that is not stale has delivered a cloud stamped after since_stamp_s [s] (the
-        stamp of the last fused cloud used): a fusing node that waits for this publishes once per round of
-        cameras, at the rate of the slowest live one; a camera gone silent stops holding it up after max_age_s."""
-        if self.newest is None:
+    def round_complete(self) -> bool:
+        """Whether every topic whose cloud is not stale has delivered a cloud since the last :meth:`fuse`: a node
+        that fuses only then publishes once per round of cameras, at the rate of the slowest live one; a camera
+        gone silent stops holding rounds up once its cloud is stale (max_age_s behind the newest)."""
+        if self.newest is None or not self._round:
             return False
         ref = self._clouds[self.newest].stamp_s
-        for held in self._clouds.values():
-            if self._is_stale(held, ref):
-                continue
-            if held.stamp_s <= since_stamp_s:
-                return False
-        return True
+        return all(t in self._round or self._is_stale(h, ref) for t, h in self._clouds.items())
 
     def _is_stale(self, held: _Held, ref: float) -> bool:
         return self.max_age_s > 0.0 and abs(ref - held.stamp_s) > self.max_age_s
 
     def fuse(self) -> FusedCloud:
-        """The fused cloud of the topics' newest clouds, the newest accepted cloud's stamp as reference."""
+        """The fused cloud of the topics' newest clouds, the newest accepted cloud's stamp as reference; starts a
+        new round (round_complete)."""
+        self._round = set()
         empty = np.zeros((0, 3), dtype=np.float32)
         missing = tuple(t for t in self.topics if t not in self._clouds)
         if self.newest is None:

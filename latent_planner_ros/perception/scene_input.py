@@ -171,12 +171,22 @@ class StatusReport:
 
 
 def _cloud_values(
-    points_in: int, finite=0, inside=0, used=0, voxel_m=0.0, encode_ms=0.0, origin="none (no cloud encoded)"
+    points_in: int,
+    finite=0,
+    inside=0,
+    used=0,
+    voxel_m=0.0,
+    encode_ms=0.0,
+    origin="none (no cloud encoded)",
+    sources="",
+    stale="",
 ) -> dict:
-    """Status key-values of the last cloud: point counts, downsampling voxel [m], encoding time [ms], and
-    whether it was encoded with its camera origin."""
+    """Status key-values of the last cloud: point counts, downsampling voxel [m], encoding time [ms], whether it
+    was encoded with its camera origin, the cloud topics fused into it and the ones left out as stale."""
     return {
         "camera_origin": origin,
+        "cloud_sources": sources,
+        "clouds_stale": stale,
         "points_in": points_in,
         "points_finite": finite,
         "points_inside": inside,
@@ -193,22 +203,25 @@ class SceneInputMonitor:
     encoded; any cloud, good or refused, resets the staleness timer.
     """
 
-    def __init__(self, stale_after_s: float):
+    def __init__(self, stale_after_s: float, topics: str = "camera/points"):
         self.stale_after_s = stale_after_s
         self.last_arrival: float | None = None
-        self.state, self.level, self.message = "waiting", WARN, "waiting for camera/points"
+        self.state, self.level, self.message = "waiting", WARN, f"waiting for {topics}"
         self.last_error = ""
         self.encoded = 0
         self.refused = 0
         self.values = _cloud_values(points_in=0)
 
-    def on_encoded(self, now: float, cloud: PreparedCloud, encode_ms: float, origin: str = "not used") -> None:
-        """A cloud was encoded (and published) in encode_ms [ms]; origin says whether with its camera origin."""
+    def on_encoded(
+        self, now: float, cloud: PreparedCloud, encode_ms: float, origin: str = "not used", sources="", stale=""
+    ) -> None:
+        """A cloud was encoded (and published) in encode_ms [ms]; origin says whether with its camera origin,
+        sources which cloud topics were fused into it, stale which ones were left out as stale (then WARN)."""
         self.last_arrival = now
         self.encoded += 1
         self.values = _cloud_values(
             cloud.points_in, cloud.points_finite, cloud.points_inside, cloud.points_used, cloud.voxel_m, encode_ms,
-            origin,
+            origin, sources, stale,
         )  # fmt: skip
         if cloud.points_used == 0:
             self.state, self.level = "empty", WARN
@@ -221,6 +234,9 @@ class SceneInputMonitor:
             self.message = f"encoded {cloud.points_used} points"
             if cloud.voxel_m > 0.0:
                 self.message += f" (downsampled from {cloud.points_inside}, voxel {cloud.voxel_m * 1000:.0f} mm)"
+        if stale:
+            self.level = max(self.level, WARN)
+            self.message += f"; left out as stale: {stale}"
 
     def on_refused(self, now: float, reason: str, points_in: int = 0) -> None:
         """A cloud (of points_in points, as far as known) was refused (malformed); nothing was published."""

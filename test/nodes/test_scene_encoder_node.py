@@ -281,3 +281,143 @@ def test_scene_encoder_refuses_to_start_without_a_good_checkpoint(tmp_path, chec
         assert proc.returncode not in (0, None), f"{name}: exit code {proc.returncode}\n{err}"
         assert cases[name][1] in err and "cannot start" in err, f"{name}:\n{err}"
         assert "Traceback" not in err, f"{name}:\n{err}"
+
+
+FUSE_PROBE = r"""
+import json, sys, time
+import numpy as np
+import rclpy
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import PointCloud2
+from msg_adapters import cloud_to_embedding, xyz_to_cloud
+
+out_dir = sys.argv[1]
+rclpy.init()
+node = rclpy.create_node("scene_encoder_fuse_probe")
+embeddings, statuses = {}, []
+node.create_subscription(
+    PointCloud2, "scene_embedding", lambda m: embeddings.__setitem__(m.header.stamp.sec, m), 10
+)  # the newest per stamp: the first cloud of a round may be encoded alone before the other camera is known
+node.create_subscription(DiagnosticArray, "scene_encoder/status", lambda m: statuses.append(m.status[0]), 50)
+pubs = {t: node.create_publisher(PointCloud2, f"{t}/points", 10) for t in ("camera", "left", "right")}
+poses = {t: node.create_publisher(PoseStamped, f"{t}/pose", 10) for t in ("camera", "left")}
+eyes = {"camera": (1.6, 0.7, 0.9), "left": (0.4, -1.1, 1.0)}
+rng = np.random.default_rng(3)
+clouds = {"camera": rng.uniform([0.2, -0.4, 0.0], [0.8, 0.0, 0.4], size=(400, 3)).astype(np.float32),
+          "left": rng.uniform([0.2, 0.0, 0.0], [0.8, 0.4, 0.4], size=(300, 3)).astype(np.float32)}
+np.savez(f"{out_dir}/fuse_inputs.npz", **clouds)
+
+def spin_until(cond, timeout):
+    end = time.monotonic() + timeout
+    while not cond() and time.monotonic() < end:
+        rclpy.spin_once(node, timeout_sec=0.05)
+    return cond()
+
+def values(s):
+    return {"level": s.level[0], "message": s.message, **{kv.key: kv.value for kv in s.values}}
+
+def pose(t, sec):
+    p = PoseStamped()
+    p.header.frame_id, p.header.stamp = "world", Time(sec=sec)
+    p.pose.position.x, p.pose.position.y, p.pose.position.z = eyes[t]
+    p.pose.orientation.w = 1.0
+    return p
+
+def cloud(t, points, sec, frame="world"):
+    m = xyz_to_cloud(points, frame_id=frame)
+    m.header.stamp = Time(sec=sec)
+    return m
+
+def until(name, publish, cond, timeout=20.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        publish()
+        if spin_until(cond, 0.5):
+            results[name] = values(statuses[-1])
+            return
+    raise AssertionError(f"{name}: last status {values(statuses[-1]) if statuses else None}")
+
+results = {}
+assert spin_until(lambda: len(statuses) > 0, 60.0), "no status from scene_encoder"
+results["waiting"] = values(statuses[0])
+
+def both(sec):
+    def publish():
+        for t in ("camera", "left"):
+            poses[t].publish(pose(t, sec))
+        spin_until(lambda: False, 0.1)
+        for t in ("camera", "left"):
+            pubs[t].publish(cloud(t, clouds[t], sec))
+    return publish
+until("fused", both(10), lambda: 10 in embeddings and "camera/points (400), left/points (300)" in
+      values(statuses[-1])["cloud_sources"])
+spin_until(lambda: False, 0.5)
+# a camera that is not configured: right/points is not subscribed; a configured one in another frame is refused
+until("wrong_frame", lambda: pubs["left"].publish(cloud("left", clouds["left"], 11, "left_optical_frame")),
+      lambda: "left_optical_frame" in values(statuses[-1])["last_error"])
+# left goes silent: once its cloud is stale the camera alone is encoded, and the status says so
+def camera_only(sec):
+    return lambda: pubs["camera"].publish(cloud("camera", clouds["camera"][:200], sec))
+until("stale", camera_only(12), lambda: 12 in embeddings and "left/points" in values(statuses[-1])["clouds_stale"])
+pubs["right"].publish(cloud("right", clouds["left"], 13))
+until("still_working", both(14), lambda: 14 in embeddings and values(statuses[-1])["level"] == 0
+      and values(statuses[-1])["clouds_stale"] == "")
+c, f = cloud_to_embedding(embeddings[10])
+np.savez(f"{out_dir}/fused_embedding.npz", centres=c, features=f)
+results["stamps"] = sorted(embeddings)
+print(json.dumps(results))
+"""
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+@pytest.mark.timeout(120)
+def test_scene_encoder_fuses_two_cameras_and_refuses_a_cloud_in_another_frame(tmp_path, checkpoint):
+    env = child_env(random.SystemRandom().randint(1, 100))
+    args = ["-p", f"checkpoint:={checkpoint}", "-p", "status_rate_hz:=20.0", "-p", "cloud_max_age_s:=1.0"]
+    args += ["-p", "cloud_topics:=[camera/points, left/points]"]
+    node = subprocess.Popen(
+        node_cmd(*args), cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        probe = subprocess.run(
+            [sys.executable, "-c", FUSE_PROBE, str(tmp_path)],
+            cwd=REPO,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=100,
+        )
+        assert probe.returncode == 0, f"probe failed:\n{probe.stderr[-3000:]}\nnode:\n{stop(node)[-3000:]}"
+        result = json.loads(probe.stdout.strip().splitlines()[-1])
+        assert node.poll() is None, "the node stopped"
+    finally:
+        log = stop(node, signal.SIGTERM)
+    assert node.returncode == 0 and "Traceback" not in log, log[-3000:]
+    assert "camera/points, left/points" in result["waiting"]["message"]
+
+    # the fused embedding is the encoder's of both clouds, each point with its own camera's origin
+    encoder = load_scene_encoder(checkpoint)
+    inputs = np.load(tmp_path / "fuse_inputs.npz")
+    points = np.concatenate([inputs["camera"], inputs["left"]])
+    origins = np.r_[np.tile([1.6, 0.7, 0.9], (400, 1)), np.tile([0.4, -1.1, 1.0], (300, 1))]
+    with torch.no_grad():
+        expected = encoder.encode(points, origins)
+        first_only = encoder.encode(inputs["camera"], np.array([1.6, 0.7, 0.9]))
+    got = np.load(tmp_path / "fused_embedding.npz")
+    rebuilt = SceneEmbedding.from_points(got["centres"], got["features"], encoder.config)
+    torch.testing.assert_close(rebuilt.features, expected.features, atol=1e-5, rtol=1e-5)
+    assert not torch.allclose(rebuilt.features, first_only.features, atol=1e-4)
+    fused = result["fused"]
+    assert fused["camera_origin"] == "known" and fused["points_used"] == "700" and fused["points_in"] == "700"
+
+    wrong = result["wrong_frame"]
+    assert wrong["level"] == 2
+    assert "left/points refused: frame 'left_optical_frame', expected 'world'" in wrong["last_error"]
+    assert "left_optical_frame" in log, "the refusal is logged"
+    stale = result["stale"]
+    assert "left/points (2.00 s behind)" in stale["clouds_stale"] and "stale" in stale["message"]
+    assert stale["cloud_sources"] == "camera/points (200)"
+    assert result["stamps"] == [10, 12, 14], "nothing published for the refused cloud or the unconfigured camera"

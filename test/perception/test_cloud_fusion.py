@@ -26,6 +26,7 @@ def test_two_topics_fuse_with_one_origin_per_point():
     fusion.add_pose("camera/points", EYE_A, "world", 10.0)
     fusion.add_cloud("camera/points", a, "world", 10.0)
     fusion.add_cloud("left/points", np.r_[b, [[np.nan, 0, 0]]], "world", 10.02)
+    assert fusion.received == {"camera/points": 100, "left/points": 51}
     fused = fusion.fuse()
     assert fused.sources == TOPICS and fused.counts == (100, 50) and fused.stamp_s == pytest.approx(10.02)
     np.testing.assert_array_equal(fused.points, np.r_[a, b])
@@ -68,15 +69,23 @@ def test_refusals_name_the_topic_and_keep_the_previous_cloud():
 
 def test_a_round_completes_when_every_live_camera_has_delivered():
     fusion = CloudFusion(TOPICS, max_age_s=0.5)
+    assert not fusion.round_complete()
     fusion.add_cloud("camera/points", _cloud(10, 0), "world", 1.0)
-    assert fusion.round_complete(0.0), "the other camera has not delivered yet: it does not hold the round up"
+    assert fusion.round_complete(), "a camera that has not delivered yet does not hold the round up"
+    fusion.fuse()
+    assert not fusion.round_complete()
     fusion.add_cloud("left/points", _cloud(10, 1), "world", 1.0)
+    assert not fusion.round_complete(), "camera/points has not delivered since"
     fusion.add_cloud("camera/points", _cloud(10, 2), "world", 1.08)
-    assert not fusion.round_complete(1.0)
-    fusion.add_cloud("left/points", _cloud(10, 3), "world", 1.08)
-    assert fusion.round_complete(1.0)
+    assert fusion.round_complete()
+    fusion.fuse()
+    fusion.add_cloud("camera/points", _cloud(10, 3), "world", 1.16)
+    assert not fusion.round_complete()
     fusion.add_cloud("camera/points", _cloud(10, 4), "world", 1.7)  # left went silent: stale, no longer waited for
-    assert fusion.round_complete(1.08)
+    assert fusion.round_complete()
+    fusion.fuse()
+    fusion.add_cloud("camera/points", _cloud(10, 5), "world", 0.05)  # stamps jumped back (a replayed log)
+    assert fusion.round_complete(), "left's cloud is 0.95 s away from the newest stamp: stale"
 
 
 def test_limit_points_by_origin_keeps_each_cameras_origin_and_matches_one_camera():
