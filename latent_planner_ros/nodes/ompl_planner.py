@@ -1,6 +1,9 @@
 """ompl_planner node: the OMPL baseline behind the planner node's GetPlan contract, with optional execution.
 
-Subscribes joint_states and camera/points. Service ~/plan (nav_msgs/GetPlan): `goal` = TCP target pose,
+Subscribes joint_states and each topic of `cloud_topics` (default camera/points): the topics' newest clouds are
+fused in `frame_id` at each plan (perception/cloud_fusion.py: one stamped more than `cloud_max_age_s` from the
+newest is left out and named on status; a cloud in another frame is refused with the topic and reason).
+Service ~/plan (nav_msgs/GetPlan): `goal` = TCP target pose,
 `start` ignored (the current joint state is the start), `tolerance` = position tolerance [m] (0: the
 configured one); the response is the end-effector path, empty on failure. Publishes ~/trajectory (the joint
 trajectory, same header stamp as the returned Path), ~/markers, ~/status (state, reason of the last failure,
@@ -14,6 +17,7 @@ from __future__ import annotations
 
 import math
 import sys
+from functools import partial
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
@@ -28,6 +32,7 @@ from visualization_msgs.msg import MarkerArray
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.ompl_planner_config import OmplPlannerNodeConfig
+from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.ompl_baseline import OmplPlanner
 from latent_planner_ros.planning.trajectory_stream import TrajectoryStreamer
@@ -58,7 +63,7 @@ class OmplPlannerNode(Node):
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._q: np.ndarray | None = None
         self._q_time = -math.inf
-        self._cloud: np.ndarray | None = None
+        self.fusion = CloudFusion(self.config.cloud_topics, self.config.frame_id, self.config.cloud_max_age_s)
         self._streamer: TrajectoryStreamer | None = None
         self._state, self._last_error = "idle", ""
         self._last: dict[str, object] = {}
@@ -68,7 +73,8 @@ class OmplPlannerNode(Node):
         self.pub_markers = self.create_publisher(MarkerArray, "~/markers", 10)
         self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
         self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
-        self.create_subscription(PointCloud2, "camera/points", self._on_cloud, 2)
+        for cloud_topic in self.config.cloud_topics:
+            self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2)
         self.create_service(GetPlan, "~/plan", self._on_plan)
         self.create_timer(1.0 / self.config.command_rate_hz, self._on_tick)
         self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)
@@ -88,10 +94,13 @@ class OmplPlannerNode(Node):
     def _on_set_parameters(self, params) -> SetParametersResult:
         try:
             config = from_params(OmplPlannerNodeConfig, {p.name: p.value for p in params}, base=self.config)
+            if tuple(config.cloud_topics) != tuple(self.config.cloud_topics) or config.frame_id != self.fusion.frame_id:
+                raise ConfigError("cloud_topics, frame_id: the subscriptions are fixed at start-up (restart the node)")
             planner = OmplPlanner(config.ompl)
         except (ConfigError, ValueError, TypeError) as err:
             return SetParametersResult(successful=False, reason=str(err))
         self.config, self.planner = config, planner
+        self.fusion.max_age_s = config.cloud_max_age_s
         return SetParametersResult(successful=True)
 
     # -- inputs -------------------------------------------------------------------------------------
@@ -103,14 +112,16 @@ class OmplPlannerNode(Node):
             return
         self._q_time = self._now()
 
-    def _on_cloud(self, msg: PointCloud2) -> None:
-        if msg.header.frame_id not in ("", self.config.frame_id):
-            self._error(f"camera/points refused: frame {msg.header.frame_id!r}, expected {self.config.frame_id!r}")
-            return
+    def _on_cloud(self, cloud_topic: str, msg: PointCloud2) -> None:
+        frame = msg.header.frame_id or self.config.frame_id  # an empty frame is taken as frame_id
         try:
-            self._cloud = cloud_to_xyz(msg)
+            self.fusion.check(cloud_topic, frame)
+            stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+            self.fusion.add_cloud(cloud_topic, cloud_to_xyz(msg), frame, stamp, int(msg.width) * int(msg.height))
+        except CloudRefused as err:
+            self._error(str(err))
         except AdapterError as err:
-            self._error(f"camera/points refused: {err}")
+            self._error(f"{cloud_topic} refused: {err}")
 
     def _fresh_q(self) -> np.ndarray | None:
         if self._q is None or self._now() - self._q_time > self.config.stale_joint_states_s:
@@ -137,12 +148,15 @@ class OmplPlannerNode(Node):
         except (AdapterError, ValueError) as err:
             self._fail(f"plan refused: {err}")
             return response
-        if self._cloud is None and self.config.require_cloud:
+        fused = self.fusion.fuse()
+        if not fused.sources and self.config.require_cloud:
             self._fail("plan refused: no point cloud received yet")
             return response
+        if fused.stale:
+            self._error(f"clouds left out as stale: {fused.describe()}")
         self._streamer = None  # a valid new request stops the execution of the previous plan
         self._state = "planning"
-        result = self.planner.plan(q, goal, self._cloud)
+        result = self.planner.plan(q, goal, fused.points if fused.sources else None)
         self._last = {
             "last_success": result.success,
             "last_reason": result.reason,
@@ -150,6 +164,7 @@ class OmplPlannerNode(Node):
             **{k: v for k, v in result.timings.items() if k != "total_s"},
             "states_checked": result.iterations,
             "cloud_points": result.info.get("cloud_points", 0),
+            "cloud_sources": fused.describe(),
             "goal_states": result.info.get("goal_states", 0),
             "path_states": len(result.q_path),
         }

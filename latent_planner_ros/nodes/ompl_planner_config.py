@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from latent_planner_ros.nodes.scene_encoder_config import check_topics
 from latent_planner_ros.planning.ompl_baseline_config import OmplConfig
 from sim_bridge.params import ConfigError, check_number
 
@@ -26,6 +27,10 @@ class OmplPlannerNodeConfig:
     """frame of goals, clouds and returned paths (the Panda base)"""
     status_rate_hz: float = 2.0
     """status publishing rate [Hz]"""
+    cloud_topics: tuple[str, ...] = ("camera/points",)
+    """the cloud topics (one per camera, in frame_id) fused into the occupancy map; fixed at start-up"""
+    cloud_max_age_s: float = 0.5
+    """[s] a topic's newest cloud stamped further than this from the newest cloud is left out as stale; 0 = never"""
     ompl: OmplConfig = field(default_factory=OmplConfig)
 
     def __post_init__(self) -> None:
@@ -37,5 +42,7 @@ class OmplPlannerNodeConfig:
         check_number("pos_tol", self.pos_tol, 0.0, 1.0, open_low=True)
         check_number("ori_tol_deg", self.ori_tol_deg, 0.0, 180.0, open_low=True)
         check_number("status_rate_hz", self.status_rate_hz, 0.0, 100.0, open_low=True)
+        check_topics("cloud_topics", self.cloud_topics)
+        check_number("cloud_max_age_s", self.cloud_max_age_s, 0.0, 3600.0)
         if not (isinstance(self.frame_id, str) and self.frame_id):
             raise ConfigError(f"frame_id: expected a non-empty string, got {self.frame_id!r}")

@@ -1,8 +1,11 @@
 """planner node: AMP-LS closed-loop joint targets at 10 Hz and one-shot plans on a service.
 
-Subscribes joint_states, goal_pose, scene_embedding (learned backend) and camera/points (geometric
-backend, the hard check, and the goal-inside-obstacle check; only the newest cloud is converted, once per tick,
-so a fast camera cannot starve the control loop; clouds above `cloud_max_points` are voxel-downsampled first).
+Subscribes joint_states, goal_pose, scene_embedding (learned backend) and each topic of `cloud_topics` (default
+camera/points; for the geometric backend, the hard check, and the goal-inside-obstacle check). Only the newest
+cloud of each topic is converted, once per tick, so fast cameras cannot starve the control loop; the topics'
+newest clouds are fused in `world` (perception/cloud_fusion.py: one stamped more than `cloud_max_age_s` from the
+newest is left out and named on status; a cloud in another frame is refused with the topic and reason) and
+clouds above `cloud_max_points` are voxel-downsampled.
 Joint states that are malformed or far outside the joint limits are refused (the last good one goes stale and
 commands stop). Publishes joint_command (when enabled),
 ~/trajectory, ~/markers, ~/status (with the last cloud's point counts). Services ~/plan (nav_msgs/GetPlan)
@@ -23,6 +26,7 @@ from __future__ import annotations
 
 import sys
 import time
+from functools import partial
 
 import torch
 from diagnostic_msgs.msg import DiagnosticArray
@@ -41,6 +45,7 @@ from latent_planner_ros.models.vae_io import load_vae
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.planner_config import PlannerNodeConfig
+from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from latent_planner_ros.perception.scene_input import limit_points
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.backends import make_backend
@@ -77,8 +82,10 @@ class PlannerNode(Node):
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._last_error = ""
         self._last_outcome = TickOutcome(None, "starting", "starting")
-        self._cloud_msg: PointCloud2 | None = None  # the newest cloud, not yet converted
+        self._cloud_msgs: dict[str, PointCloud2] = {}  # the newest cloud of each topic, not yet converted
         self._cloud_time = 0.0
+        self.fusion = CloudFusion(self.config.cloud_topics, "world", self.config.cloud_max_age_s)
+        self._cloud_sources = "none"
         self._last_cloud = None  # (points (N, 3), receipt time [s]) of the last converted cloud
         self._cloud_points = (0, 0)  # points received, points used (finite, downsampled) of the last cloud
         self._cylinders: dict = {}  # {(ns, id): (x, y, h, r) [m]} of the accepted obstacle markers
@@ -91,7 +98,8 @@ class PlannerNode(Node):
         self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
         self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
         self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10)
-        self.create_subscription(PointCloud2, "camera/points", self._on_cloud, 2)
+        for cloud_topic in self.config.cloud_topics:
+            self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2)
         self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, 10)
         if self.config.amp_ls.collision_backend == "learned":
             self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2)
@@ -129,6 +137,8 @@ class PlannerNode(Node):
             return SetParametersResult(successful=True)
         try:
             config = from_params(PlannerNodeConfig, ours, base=self.config)
+            if tuple(config.cloud_topics) != tuple(self.config.cloud_topics):
+                raise ConfigError("cloud_topics: the subscriptions are fixed at start-up (restart the node)")
             vae = (
                 self.vae
                 if config.vae_checkpoint == self.config.vae_checkpoint
@@ -143,6 +153,7 @@ class PlannerNode(Node):
         if config.status_rate_hz != self.config.status_rate_hz:
             self._status_timer = self._replace_timer(self._status_timer, config.status_rate_hz, self._publish_status)
         self.config, self.modes, self.vae = config, modes, vae
+        self.fusion.max_age_s = config.cloud_max_age_s
         if self._last_cloud is not None:
             self._apply_cloud(*self._last_cloud)
         self.modes.set_cylinders(cylinders, self._now())
@@ -166,22 +177,33 @@ class PlannerNode(Node):
         if not accepted:
             self._error(f"joint_states refused: {reason}")
 
-    def _on_cloud(self, msg: PointCloud2) -> None:
-        """Keep the newest cloud; it is converted once, at the next tick, goal or plan request (clouds faster
-        than the control rate would otherwise starve the control loop)."""
-        self._cloud_msg, self._cloud_time = msg, self._now()
+    def _on_cloud(self, cloud_topic: str, msg: PointCloud2) -> None:
+        """Keep the topic's newest cloud; it is converted once, at the next tick, goal or plan request (clouds
+        faster than the control rate would otherwise starve the control loop)."""
+        self._cloud_msgs[cloud_topic], self._cloud_time = msg, self._now()
 
     def _use_latest_cloud(self) -> None:
-        msg, self._cloud_msg = self._cloud_msg, None
-        if msg is None:
+        msgs, self._cloud_msgs = self._cloud_msgs, {}
+        accepted = False
+        for topic, msg in msgs.items():
+            try:
+                self.fusion.check(topic, msg.header.frame_id)
+                points = cloud_to_xyz(msg)
+                stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+                self.fusion.add_cloud(topic, points, msg.header.frame_id, stamp, int(msg.width) * int(msg.height))
+                accepted = True
+            except CloudRefused as err:
+                self._error(str(err))
+            except AdapterError as err:
+                self._error(f"{topic} refused: {err}")
+        if not accepted:
             return
-        try:
-            cloud = cloud_to_xyz(msg)
-        except AdapterError as err:
-            self._error(f"camera/points refused: {err}")
-            return
-        cloud, _ = limit_points(cloud, self.config.cloud_max_points, self.config.cloud_voxel_m)
-        self._cloud_points = (int(msg.width) * int(msg.height), len(cloud))
+        fused = self.fusion.fuse()
+        self._cloud_sources = fused.describe()
+        if fused.stale:
+            self._error(f"clouds left out as stale: {', '.join(fused.stale)}")
+        cloud, _ = limit_points(fused.points, self.config.cloud_max_points, self.config.cloud_voxel_m)
+        self._cloud_points = (sum(self.fusion.received[t] for t in fused.sources), len(cloud))
         self._last_cloud = (cloud, self._cloud_time)
         self._apply_cloud(cloud, self._cloud_time)
 
@@ -305,6 +327,7 @@ class PlannerNode(Node):
             "last_error": self._last_error,
             "cloud_points_in": points_in,
             "cloud_points_used": points_used,
+            "cloud_sources": self._cloud_sources,
             **o.values,
         }
         stamp = self.get_clock().now().to_msg()

@@ -5,10 +5,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from latent_planner_ros.nodes.scene_encoder_config import check_topics
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig
 from latent_planner_ros.planning.cylinder_backend import CHECKS
 from latent_planner_ros.planning.lspp import lspp_config
+from sim_bridge.params import ConfigError
 
 
 @dataclass
@@ -34,6 +36,11 @@ class PlannerNodeConfig:
     """[m] first voxel edge of that downsampling (grown until the cloud fits); 0 = keep evenly spaced points"""
     status_rate_hz: float = 2.0
     """status publishing rate [Hz]"""
+    cloud_topics: tuple[str, ...] = ("camera/points",)
+    """the cloud topics (one per camera, frame `world`) fused for the geometric backend, the hard check and the goal
+    checks; fixed at start-up"""
+    cloud_max_age_s: float = 0.5
+    """[s] a topic's newest cloud stamped further than this from the newest cloud is left out as stale; 0 = never"""
     closed_loop: ClosedLoopConfig = field(default_factory=ClosedLoopConfig)
     amp_ls: AmpLsConfig = field(default_factory=AmpLsConfig)
     lspp: AmpLsConfig = field(default_factory=lspp_config)
@@ -45,6 +52,13 @@ class PlannerNodeConfig:
         n = self.cloud_max_points
         if not (isinstance(n, int) and not isinstance(n, bool) and 1_000 <= n <= 10_000_000):
             raise ValueError(f"cloud_max_points must be an integer in [1000, 10000000], got {n!r}")
+        try:
+            check_topics("cloud_topics", self.cloud_topics)
+        except ConfigError as err:
+            raise ValueError(str(err)) from None
+        c = self.cloud_max_age_s
+        if not (isinstance(c, int | float) and not isinstance(c, bool) and math.isfinite(c) and 0 <= c <= 3600):
+            raise ValueError(f"cloud_max_age_s must be a number in [0, 3600], got {c!r}")
         if self.lspp_check not in CHECKS:
             raise ValueError(f"lspp_check must be one of {CHECKS}, got {self.lspp_check!r}")
         for name, high in (("obstacle_tilt_tol_deg", 45.0), ("obstacle_z_tol_m", 1.0), ("cloud_voxel_m", 0.5)):
