@@ -67,6 +67,10 @@ AMP_LS_VARIANTS: dict[str, AmpLsVariant] = {
         "beyond the seed off: restarts keep the pose target (no IK goal configurations)", {"goal_guidance": 0}
     ),
     "amp_ls_seed_lr": AmpLsVariant("the closed loop's step size (lr 0.06) for plans too", {"plan_lr": 0.06}),
+    "amp_ls_no_rrt_escape": AmpLsVariant(
+        "beyond the seed off: no RRT escape when the latent search stalls (rrt_escape_budget_s 0)",
+        {"rrt_escape_budget_s": 0.0},
+    ),
 }
 """AMP-LS rows of the table, in order."""
 
@@ -114,7 +118,13 @@ def budgets() -> dict:
     """The budgets of every row, for the report."""
     a, o = AmpLsConfig(), OmplConfig()
     return {
-        "amp_ls": {"max_steps": a.max_steps, "patience_steps": a.patience, "n_seeds": a.n_seeds},
+        "amp_ls": {
+            "max_steps": a.max_steps,
+            "patience_steps": a.patience,
+            "n_seeds": a.n_seeds,
+            "rrt_escape_after_s": a.rrt_escape_after_s,
+            "rrt_escape_budget_s": a.rrt_escape_budget_s,
+        },
         "rrtconnect": {"timeout_s": o.timeout_s},
         "lbkpiece": {"timeout_s": o.timeout_s},
         "rrtstar": {"fixed_budget_s": o.anytime_budget_s},

@@ -25,6 +25,10 @@ Beyond the seed, `plan` (not `step`) by default (each a switch of AmpLsConfig, m
 - goal guidance: at the first restart, IK solutions of the goal that pass the hard check are searched once;
   restarted seeds target one of them in joint space (a goal near the joint limits stalls the pose loss) and
   finish by the checked straight segment to it.
+- RRT escape: when the latent search ends without the goal (every seed stalled, the step budget spent, or
+  rrt_escape_after_s of wall time passed), RRTConnect searches joint space from the start to those goal
+  configurations on the same hard check, within rrt_escape_budget_s (planning/escape.py); its path is shortcut
+  like any other, and the result says so (reason "reached (escape: rrt)", info["escape"]).
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ from latent_planner_ros.planning.amp_ls_additions import PlanAdditions
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.amp_ls_search import LatentSearch, StepResult
 from latent_planner_ros.planning.collision_backend import CollisionBackend
+from latent_planner_ros.planning.escape import RrtEscape
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.plan_clock import PlanClock
 from latent_planner_ros.planning.result import PlanResult
@@ -76,6 +81,8 @@ class AmpLs(PlanAdditions):
         self._escape_from: np.ndarray | None = None  # plan: the start, while states near it are not refused
         self._search: LatentSearch | None = None
         self.clock = PlanClock()  # where `plan`'s time goes (PlanResult.timings)
+        # the sampled escape of open-loop plans, on the hard check of the accepted steps (None: off)
+        self.escape = RrtEscape(self._free, self._densify) if self.config.rrt_escape_budget_s > 0 else None
 
     # -- shared pieces -----------------------------------------------------------------------------
     def _decode(self, z: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -281,6 +288,7 @@ class AmpLs(PlanAdditions):
         winner = self._direct_first(s, goal) if cfg.direct_first else None
         straight = winner is not None
         reason = "step budget exhausted" if winner is None else "reached"
+        escape_at = t0 + cfg.rrt_escape_after_s if self.escape is not None else np.inf  # [s] perf_counter
         for t in range(cfg.max_steps if winner is None else 0):
             with self.clock.section("steps"):
                 ev = self._iterate(s, goal, accept=t > 0, lazy=cfg.lazy_check)
@@ -305,6 +313,13 @@ class AmpLs(PlanAdditions):
             elif np.all(stalled):
                 reason = "no progress"
                 break
+            if time.perf_counter() > escape_at:
+                reason = f"not reached within {cfg.rrt_escape_after_s:g} s"
+                break
+        escaped = ""
+        if winner is None and self.escape is not None:
+            winner, escaped = self._escape_by_rrt(s, goal)
+            reason = "reached" if winner is not None else f"{reason}; {escaped}"
         if winner is None:
             self._verify(s, [b for b in range(len(s.paths)) if s.pending[b]])
             ends = np.array([self._fk_err(p[-1][-1], goal)[0] for p in s.paths])
@@ -312,13 +327,20 @@ class AmpLs(PlanAdditions):
         q_path = np.concatenate(s.paths[winner])
         if cfg.shortcut and reason == "reached":
             q_path = self._shortcut(s.paths[winner])
+        if reason == "reached" and escaped and self._check_segments([q_path])[0].any():
+            reason = "escape: rrt path failed the final hard check"  # by construction never; kept as a guard
         self._escape_from = None
-        result = self._result(s, q_path, winner, goal, reason, time.perf_counter() - t0, t_setup)
+        result = self._result(s, q_path, winner, goal, reason, time.perf_counter() - t0, t_setup, escaped)
         result.info["start_refused"] = start_refused
         result.info["goal_configurations"] = -1 if s.goal_qs is None else len(s.goal_qs)  # -1: not searched
         result.info["guided"] = bool(np.isfinite(s.guide_q[winner, 0]))
         result.info["direct_first"] = straight  # solved by the straight segment before any optimisation step
         return result
+
+    def _densify(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
+        """The states (m, 7) [rad] hard-checked on the straight segment q_from (7,) -> q_to (7,) [rad], q_from
+        excluded: the interpolation of an accepted step."""
+        return interpolate(q_from, q_to, self._n_checks(q_from, q_to))
 
     def _n_checks(self, q_from: np.ndarray, q_to: np.ndarray) -> int:
         """m, the states checked on a step: interp_steps, or (check_step_rad > 0) one per check_step_rad [rad]."""
@@ -362,14 +384,26 @@ class AmpLs(PlanAdditions):
         return pe, oe
 
     def _result(
-        self, s: LatentSearch, q_path: np.ndarray, b: int, goal: Goal, reason: str, elapsed: float, t_setup: float
+        self,
+        s: LatentSearch,
+        q_path: np.ndarray,
+        b: int,
+        goal: Goal,
+        reason: str,
+        elapsed: float,
+        t_setup: float,
+        escaped: str = "",
     ) -> PlanResult:
+        """The PlanResult of seed b's path q_path (T, 7) [rad]; escaped: what the RRT escape reported ("" if it
+        did not run), its success shown in the reason as "reached (escape: rrt)"."""
         with torch.no_grad():
             pos, rot = self.fk64.ee_pose(torch.as_tensor(q_path))
         pos_err, ori_err = self._fk_err(q_path[-1], goal)
         success = reason == "reached" and self._reached(pos_err, ori_err, goal)
         timings = self.clock.totals()
         timings["other_s"] = max(0.0, elapsed - sum(timings.values()))  # set-up, bookkeeping, shortcutting
+        if success and escaped:
+            reason = f"reached ({escaped})"
         return PlanResult(
             success=success,
             q_path=q_path,
@@ -387,6 +421,7 @@ class AmpLs(PlanAdditions):
                 "restarts": s.restarts,
                 "seed": b,
                 "checked_states": int(self.clock.counts["checked_states"]),
+                "escape": escaped,
                 **s.last_losses,
             },
         )

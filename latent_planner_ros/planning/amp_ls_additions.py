@@ -1,25 +1,35 @@
 """AMP-LS's open-loop additions beyond the seed, as methods of `PlanAdditions` (a base of `AmpLs`).
 
 Exact finish (`_finish`, `_finish_to`), shortcut first (`_direct`), goal guidance (`_goal_configurations`),
-restarts of stalled seeds (`_restart`) and shortcutting of the final path (`_shortcut`); amp_ls.py describes
-each. They use the planner's `config`, `panda`, `generator` and its hard checks (`_free`,
-`_n_checks`, `_check_segments`, `_verify`).
+restarts of stalled seeds (`_restart`), the RRT escape (`_escape_by_rrt`) and shortcutting of the final path
+(`_shortcut`); amp_ls.py describes each. They use the planner's `config`, `panda`, `generator`, `escape` and its
+hard checks (`_free`, `_densify`, `_n_checks`, `_check_segments`, `_verify`).
 """
 
 from __future__ import annotations
+
+import time
 
 import numpy as np
 import torch
 
 from latent_planner_ros.planning.amp_ls_search import LatentSearch
+from latent_planner_ros.planning.escape import goal_states
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.ik import IkConfig, goal_configurations, solve_ik
 from latent_planner_ros.planning.shortcut import shortcut
 from latent_planner_ros.planning.time_parameterisation import interpolate
+from latent_planner_ros.robot.limits import Q_READY
 
 DIRECT_SKIP_RAD = 0.02
 """shortcut first: an end within this max-joint distance [rad] of one whose straight segment from the start
 collided is not tried again (skipping is safe: the seed's own steps are then checked instead)"""
+
+ESCAPE_GOAL_TIMEOUT_S = 0.3
+"""the RRT escape: longest search for goal states [s] (part of rrt_escape_budget_s)"""
+ESCAPE_START_SEPARATION_RAD = 0.05
+"""the RRT escape: the end of a seed's checked chain becomes a start of the tree when it is farther than this
+(max joint difference) [rad] from the start and from the other chains' ends"""
 
 
 class PlanAdditions:
@@ -112,9 +122,45 @@ class PlanAdditions:
         s.q_prev[b] = q_goal
         return True
 
-    def _goal_configurations(self, s: LatentSearch, goal: Goal) -> list[np.ndarray]:
-        """Goal guidance: up to goal_guidance distinct IK solutions (7,) [rad] of the goal that pass the hard
-        check, searched once per plan (from the best seed's state, the ready pose, then random seeds)."""
+    def _escape_by_rrt(self, s: LatentSearch, goal: Goal) -> tuple[int | None, str]:
+        """The RRT escape (rrt_escape_budget_s): goal states within the goal's tolerance that pass the hard check
+        (escape.goal_states, seeded by goal guidance's solutions, the best seed's state, the start and the ready
+        pose), then RRTConnect on the hard check, within the budget, to them from the start and from the ends of
+        the seeds' checked chains (after a start the hard check refused, the seeds' unchecked steps are checked
+        first: their chains lead out of the obstacle the start touches). On success the chain the tree grew from,
+        followed by the tree's path, becomes seed 0's path (segments densified as accepted steps) and
+        (0, "escape: rrt") is returned; else (None, "escape: rrt, <why not>")."""
+        cfg = self.config
+        t0 = time.perf_counter()
+        start = s.paths[0][0][0]
+        seeds = [*(s.goal_qs or []), s.q_prev[int(np.argmin(s.best_err))], start, Q_READY]
+        rng = np.random.default_rng(int(torch.randint(0, 2**31 - 1, (1,), generator=self.generator)))
+        free = lambda q: not self._check_segments([q])[0].any()  # noqa: E731
+        with self.clock.section("ik"):  # the hard checks of its solutions count as checks
+            goal_qs = goal_states(self.panda, goal, seeds, free, rng, timeout_s=ESCAPE_GOAL_TIMEOUT_S)
+        if not goal_qs:
+            return None, "escape: rrt, no goal state passes the hard check"
+        if self._escape_from is not None:
+            self._verify(s, [b for b in range(len(s.paths)) if s.pending[b]])
+        chains = [[start[None]]]  # checked chains from the start, each a list of segments
+        for b in range(len(s.paths)):
+            if all(np.abs(s.q_ok[b] - c[-1][-1]).max() > ESCAPE_START_SEPARATION_RAD for c in chains):
+                chains.append(list(s.paths[b]))
+        budget = cfg.rrt_escape_budget_s - (time.perf_counter() - t0)
+        with self.clock.section("escape"):
+            out = self.escape.solve([c[-1][-1] for c in chains], goal_qs, budget)
+        if out.vertices is None:
+            return None, f"escape: rrt, {out.reason}"
+        v = out.vertices
+        s.paths[0] = chains[out.start] + [self._densify(a, c) for a, c in zip(v[:-1], v[1:], strict=True)]
+        s.pending[0] = []
+        s.q_prev[0] = v[-1]
+        return 0, "escape: rrt"
+
+    def _goal_configurations(self, s: LatentSearch, goal: Goal, count: int | None = None) -> list[np.ndarray]:
+        """Goal guidance: up to `count` (default goal_guidance) distinct IK solutions (7,) [rad] of the goal that
+        pass the hard check, searched once per plan (from the best seed's state, the ready pose, then random
+        seeds)."""
         if s.goal_qs is None:
             rng = np.random.default_rng(int(torch.randint(0, 2**31 - 1, (1,), generator=self.generator)))
             with self.clock.section("ik"):  # the hard checks of its solutions count as checks
@@ -123,7 +169,7 @@ class PlanAdditions:
                     goal,
                     s.q_prev[int(np.argmin(s.best_err))],
                     lambda q: "hard check" if self._check_segments([q[None]])[0][0] else None,
-                    IkConfig(n_seeds=32, max_solutions=self.config.goal_guidance, timeout_s=0.5),
+                    IkConfig(n_seeds=32, max_solutions=count or self.config.goal_guidance, timeout_s=0.5),
                     rng,
                 )
             s.goal_qs = search.solutions

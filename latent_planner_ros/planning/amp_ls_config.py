@@ -79,6 +79,15 @@ class AmpLsConfig:
     the joint-space distance to one of them as their target loss and (with the exact finish on) finish by the
     straight segment to it once within finish_max_rad (beyond the seed: goals that need joints near their limits
     stall the pose loss); 0: restarts keep the pose target"""
+    rrt_escape_budget_s: float = 1.0
+    """open loop: when the latent search ends without the goal (every seed stalled, the step budget spent, or
+    rrt_escape_after_s passed), OMPL's RRTConnect searches joint space for at most this long [s], goal IK included,
+    from the start to goal configurations (as goal_guidance finds them, at least one), every state and motion on
+    the same hard check as the accepted steps, and the path is shortcut (planning/escape.py; beyond the seed: the
+    latent optimisation is local and stalls in bins, under shelves and behind walls); 0: off"""
+    rrt_escape_after_s: float = 0.25
+    """open loop: wall time [s] of the latent search (from the start of the plan) after which the RRT escape
+    takes over (with rrt_escape_budget_s > 0)"""
     shortcut: bool = True
     """open loop: shorten a successful path by straight joint-space shortcuts that pass the same hard check as
     the accepted steps (planning/shortcut.py; beyond the seed); with lazy_check, a seed reaching the goal first
@@ -147,7 +156,14 @@ class AmpLsConfig:
             problems.append(f"backtrace_keep must be in [0, 1), got {self.backtrace_keep!r}")
         if not (isinstance(self.restarts, int) and self.restarts >= 0):
             problems.append(f"restarts must be an integer >= 0, got {self.restarts!r}")
-        for name in ("finish_radius_m", "finish_angle_deg", "finish_max_rad", "escape_rad"):
+        for name in (
+            "finish_radius_m",
+            "finish_angle_deg",
+            "finish_max_rad",
+            "escape_rad",
+            "rrt_escape_budget_s",
+            "rrt_escape_after_s",
+        ):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 problems.append(f"{name} must be a finite number >= 0, got {v!r}")

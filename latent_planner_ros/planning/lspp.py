@@ -40,6 +40,7 @@ def lspp_seed_config(**overrides) -> AmpLsConfig:
         finish_radius_m=0.0,
         shortcut=False,
         goal_guidance=0,
+        rrt_escape_budget_s=0.0,
     )
     return replace(base, **overrides)
 
@@ -58,6 +59,7 @@ def lspp_config(**overrides) -> AmpLsConfig:
         finish_radius_m=0.0,
         shortcut=False,
         goal_guidance=0,
+        rrt_escape_budget_s=0.0,
     )
     return replace(base, **overrides)
 

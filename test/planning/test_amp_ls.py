@@ -127,7 +127,9 @@ def test_restarts_keep_the_path_continuous(shipped_vae):
     """Stalled seeds restart from the best seed's last accepted state: the returned path must still be one
     connected joint path from the start, with no jump where a seed took over another seed's path."""
     far = Goal(np.array([1.4, 0.0, 0.5]), np.eye(3))  # out of reach: every seed stalls
-    cfg = AmpLsConfig(use_collision=False, n_seeds=4, patience=5, restarts=6, max_steps=150)
+    cfg = AmpLsConfig(
+        use_collision=False, n_seeds=4, patience=5, restarts=6, max_steps=150, rrt_escape_budget_s=0.0
+    )  # the latent search alone
     result = AmpLs(shipped_vae, NoCollision(), cfg, seed=3).plan(Q_READY, far)
     assert not result.success and result.info["restarts"] == 6
     np.testing.assert_array_equal(result.q_path[0], Q_READY)

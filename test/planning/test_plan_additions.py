@@ -87,7 +87,9 @@ def test_a_colliding_finish_is_refused_and_lazy_checks_back_trace(shipped_vae, m
     """The goal needs joint 6 turned by 1.2 rad, the check refuses more than 0.3: neither the exact finish nor
     the lazily checked chains may return a refused state; the chains that reached in the model back-trace."""
     goal = _goal_of(Q_READY + np.array([0.3, 0.1, -0.1, 0.2, 0.0, 0.1, 1.2]))
-    cfg = AmpLsConfig(use_collision=True, n_seeds=2, max_steps=80, restarts=0, finish_radius_m=0.3)
+    cfg = AmpLsConfig(
+        use_collision=True, n_seeds=2, max_steps=80, restarts=0, finish_radius_m=0.3, rrt_escape_budget_s=0.0
+    )
     solved = []
     monkeypatch.setattr(amp_ls_additions, "solve_ik", lambda *a: solved.append(original_ik(*a)) or solved[-1])
     result = AmpLs(shipped_vae, RefuseFar(), cfg, seed=0).plan(Q_READY, goal)
@@ -124,7 +126,7 @@ AWKWARD_GOAL_Q = np.array([-2.389, 1.653, 1.008, -2.994, 1.847, 1.584, -2.471])
 
 def test_goal_guidance_finishes_a_plan_the_pose_loss_stalls_on(shipped_vae):
     goal = _goal_of(AWKWARD_GOAL_Q)
-    base = dict(use_collision=False, max_steps=400)
+    base = dict(use_collision=False, max_steps=400, rrt_escape_budget_s=0.0)  # the latent search alone
     plain = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(goal_guidance=0, **base), seed=0).plan(AWKWARD_START, goal)
     assert not plain.success and plain.info["goal_configurations"] == -1 and not plain.info["guided"]
     planner = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(goal_guidance=4, **base), seed=0)
