@@ -2,7 +2,9 @@
 
 The differentiable cost samples a Euclidean distance field of the cloud (voxel grid, trilinear
 interpolation); the hard check is exact (ball_query.py: an occupancy prefilter, then a KD-tree), so no checked
-state has an observed point inside any of the arm's (conservative) spheres.
+state has an observed point inside any of the arm's (conservative) spheres, or, with `exact_margin`, no observed
+point inside a sphere and within that margin of the link's convex hull: the spheres find the candidates, the
+hulls decide.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import torch.nn.functional as F
 from scipy.ndimage import distance_transform_edt
 
 from latent_planner_ros.planning.ball_query import BallQuery, finite_rows
+from latent_planner_ros.robot.link_hulls import link_hull_planes, plane_distance
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.spheres import panda_spheres
 from latent_planner_ros.robot.torch_fk import TorchFK
@@ -34,6 +37,11 @@ class GeometricBackendConfig:
     """width [m] of the sigmoid from clearance to probability"""
     check_margin: float = 0.0
     """extra clearance [m] required by the hard check"""
+    exact_margin: float | None = 0.01
+    """None: the hard check refuses every observed point inside a sphere; else a configuration the spheres refuse
+    is refused only if one of those points also lies within this distance [m] of the convex hull of the link's
+    collision geometry (robot/link_hulls.py), so that the spheres' slack does not close gaps of 1-2 cm (goals in
+    a shelf slot or a bin)"""
 
 
 class GeometricBackend:
@@ -50,6 +58,7 @@ class GeometricBackend:
         self._sphere_link = self.spheres.link[moving]
         self._sphere_centre = np.concatenate([self.spheres.centre[moving], np.ones((int(moving.sum()), 1))], 1)
         self._check_radius = np.maximum(self.spheres.radius[moving] + self.config.check_margin, 0.0)
+        self._hulls = link_hull_planes()
         self._lo = np.asarray(self.config.bounds_min, dtype=float)
         self._hi = np.asarray(self.config.bounds_max, dtype=float)
         self.set_scene(np.zeros((0, 3)))
@@ -110,4 +119,26 @@ class GeometricBackend:
         t = frames[:, self._sphere_link, :3, :]  # (M, S, 3, 4)
         c = np.einsum("msij,sj->msi", t, self._sphere_centre)  # R c + p, (M, S, 3)
         hit = self._balls.occupied(c.reshape(-1, 3), np.tile(self._check_radius, len(frames)))
-        return hit.reshape(c.shape[:2]).any(axis=1)
+        hit = hit.reshape(c.shape[:2])
+        if self.config.exact_margin is None or not hit.any():
+            return hit.any(axis=1)
+        return self._hull_hits(frames, c, hit)
+
+    def _hull_hits(self, frames: np.ndarray, centres: np.ndarray, hit: np.ndarray) -> np.ndarray:
+        """(M,) bool: configurations with an observed point that lies inside one of their hit spheres (M, S) and
+        within exact_margin of that sphere's link hull; frames (M, F, 4, 4), centres (M, S, 3) [m]."""
+        m_idx, s_idx = np.nonzero(hit)
+        lists = self._balls._kdtree().query_ball_point(centres[m_idx, s_idx], self._check_radius[s_idx])
+        counts = np.fromiter((len(p) for p in lists), dtype=int, count=len(lists))
+        pair = np.repeat(np.arange(len(lists)), counts)
+        pts = self.cloud[np.concatenate(lists).astype(int)] if len(pair) else np.zeros((0, 3))
+        link = self._sphere_link[s_idx[pair]]
+        tf = frames[m_idx[pair], link]  # (P, 4, 4): each point's link pose
+        local = np.einsum("pji,pj->pi", tf[:, :3, :3], pts - tf[:, :3, 3])  # R^T (p - t)
+        close = np.zeros(len(pair), dtype=bool)
+        for lk in np.unique(link):
+            sel = link == lk
+            close[sel] = plane_distance(self._hulls[lk], local[sel]) <= self.config.exact_margin
+        out = np.zeros(len(frames), dtype=bool)
+        out[m_idx[pair[close]]] = True
+        return out
