@@ -164,7 +164,7 @@ def test_rrtconnect_goes_around_a_thin_wall_and_never_touches_it(across_the_wall
     assert result.success, result.reason
     _check_trajectory(result, start_q, goal)
     dense = densify(result.q_path, math.radians(0.5))
-    assert not _octree_hits(wall, dense).any(), "the path touches an occupied voxel"
+    assert not _octree_hits(wall, dense, planner.config.octree_resolution).any(), "the path touches an occupied voxel"
     assert CollisionChecker().feasible(dense).all(), "the path is in self or table collision"
     ee = result.ee_positions
     crossing = np.flatnonzero(np.diff(np.sign(ee[:, 1])) != 0)
