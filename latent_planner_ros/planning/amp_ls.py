@@ -25,10 +25,11 @@ Beyond the seed, `plan` (not `step`) by default (each a switch of AmpLsConfig, m
 - goal guidance: at the first restart, IK solutions of the goal that pass the hard check are searched once;
   restarted seeds target one of them in joint space (a goal near the joint limits stalls the pose loss) and
   finish by the checked straight segment to it.
-- RRT escape: when the latent search ends without the goal (every seed stalled, the step budget spent, or
-  rrt_escape_after_s of wall time passed), RRTConnect searches joint space from the start to those goal
+- RRT escape: once rrt_escape_after_s of wall time passed without the goal (or earlier, when the latent search
+  ends: every seed stalled or the step budget spent), RRTConnect searches joint space from the start to goal
   configurations on the same hard check, within rrt_escape_budget_s (planning/escape.py); its path is shortcut
-  like any other, and the result says so (reason "reached (escape: rrt)", info["escape"]).
+  like any other, and the result says so (reason "reached (escape: rrt)", info["escape"]). If it finds nothing,
+  the latent search goes on to its own end.
 """
 
 from __future__ import annotations
@@ -289,6 +290,7 @@ class AmpLs(PlanAdditions):
         straight = winner is not None
         reason = "step budget exhausted" if winner is None else "reached"
         escape_at = t0 + cfg.rrt_escape_after_s if self.escape is not None else np.inf  # [s] perf_counter
+        escaped = ""  # what the RRT escape reported, once it ran
         for t in range(cfg.max_steps if winner is None else 0):
             with self.clock.section("steps"):
                 ev = self._iterate(s, goal, accept=t > 0, lazy=cfg.lazy_check)
@@ -313,13 +315,17 @@ class AmpLs(PlanAdditions):
             elif np.all(stalled):
                 reason = "no progress"
                 break
-            if time.perf_counter() > escape_at:
-                reason = f"not reached within {cfg.rrt_escape_after_s:g} s"
-                break
-        escaped = ""
-        if winner is None and self.escape is not None:
+            if time.perf_counter() > escape_at:  # the escape, once; if it fails, the latent search goes on
+                escape_at = np.inf
+                winner, escaped = self._escape_by_rrt(s, goal)
+                if winner is not None:
+                    reason = "reached"
+                    break
+        if winner is None and self.escape is not None and not escaped:  # stalled before rrt_escape_after_s
             winner, escaped = self._escape_by_rrt(s, goal)
-            reason = "reached" if winner is not None else f"{reason}; {escaped}"
+            reason = "reached" if winner is not None else reason
+        if winner is None and escaped:
+            reason = f"{reason}; {escaped}"
         if winner is None:
             self._verify(s, [b for b in range(len(s.paths)) if s.pending[b]])
             ends = np.array([self._fk_err(p[-1][-1], goal)[0] for p in s.paths])

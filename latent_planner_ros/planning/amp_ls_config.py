@@ -87,7 +87,7 @@ class AmpLsConfig:
     latent optimisation is local and stalls in bins, under shelves and behind walls); 0: off"""
     rrt_escape_after_s: float = 0.25
     """open loop: wall time [s] of the latent search (from the start of the plan) after which the RRT escape
-    takes over (with rrt_escape_budget_s > 0)"""
+    runs (with rrt_escape_budget_s > 0); if it finds no path, the latent search goes on to its own end"""
     shortcut: bool = True
     """open loop: shorten a successful path by straight joint-space shortcuts that pass the same hard check as
     the accepted steps (planning/shortcut.py; beyond the seed); with lazy_check, a seed reaching the goal first
