@@ -408,7 +408,7 @@ class AmpLs(PlanAdditions):
         success = reason == "reached" and self._reached(pos_err, ori_err, goal)
         timings = self.clock.totals()
         timings["other_s"] = max(0.0, elapsed - sum(timings.values()))  # set-up, bookkeeping, shortcutting
-        if success and escaped:
+        if success and escaped == "escape: rrt":  # the escape's path (not a latent success after a failed escape)
             reason = f"reached ({escaped})"
         return PlanResult(
             success=success,
