@@ -286,8 +286,8 @@ def _family_figure(names: list[str], stats: dict, families: list[str], colours: 
         x = np.arange(len(families)) + (k - (len(names) - 1) / 2) * width
         succ = np.array([fam[g]["success"] if g in fam else np.nan for g in families])
         ci = np.array([fam[g]["success_ci95"] if g in fam else [np.nan, np.nan] for g in families])
-        ax.bar(x, succ, width, yerr=[succ - ci[:, 0], ci[:, 1] - succ], capsize=2, label=n,
-               color=palette[k % len(palette)])  # fmt: skip
+        err = np.nan_to_num(np.clip([succ - ci[:, 0], ci[:, 1] - succ], 0.0, None))  # rounding can go below 0
+        ax.bar(x, np.nan_to_num(succ), width, yerr=err, capsize=2, label=n, color=palette[k % len(palette)])
     ax.set_xticks(np.arange(len(families)), families, rotation=20, ha="right")
     ax.set(ylabel="success rate (95 % CI)", ylim=(0, 1.05), title="success per scene family")
     ax.grid(alpha=0.3, axis="y")

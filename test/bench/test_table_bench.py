@@ -63,7 +63,7 @@ def test_bench_table_refuses_a_bad_set_and_unknown_planners(tmp_path, capsys):
 
 
 def test_the_report_breaks_success_down_per_family_and_inside_goals():
-    from latent_planner_ros.bench.table_report import markdown, summarise
+    from latent_planner_ros.bench.table_report import figures, markdown, summarise
 
     def row(i, family, inside, ok):
         reason = "" if ok else "no progress"
@@ -80,3 +80,6 @@ def test_the_report_breaks_success_down_per_family_and_inside_goals():
                "table": True}, "backend": "learned", "tolerance": {"position_m": 0.01, "orientation_deg": 15.0},
                "budgets": {}}  # fmt: skip
     assert "| `amp_ls` | 0.50 (1/2)" in markdown(results) and "`inside goals`" in markdown(results)
+    rows += [row(3, "bin", False, True) | {"planner": "rrtconnect"}]  # a row without every family
+    results["planners"] = summarise(rows, ["amp_ls", "rrtconnect"])
+    assert "families" in figures(results, rows)
