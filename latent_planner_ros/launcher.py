@@ -83,6 +83,23 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     return args
 
 
+CLOUD_CONSUMERS = ("scene_encoder", "planner", "ompl_planner")
+"""nodes that subscribe to the sim's clouds (`cloud_topics`)"""
+
+
+def scenario_cloud_topics(scenario: str) -> list[str]:
+    """The cloud topics of the sim's cameras for a scenario: `camera/points` and `<name>/points` for each camera
+    the scenario file brings (sim_bridge/camera_rig.py). Raises SuiteError for a scenario that does not load."""
+    from sim_bridge.scenario import ScenarioError
+    from sim_bridge.scenario_files import load_scenario
+
+    try:
+        cameras = load_scenario(scenario).cameras
+    except (ScenarioError, OSError, ValueError) as err:
+        raise SuiteError(f"--scenario: {err}") from None
+    return ["camera/points", *(f"{name}/points" for name, _ in cameras if name != "camera")]
+
+
 def _scenario_param(scenario: str) -> str:
     """The sim's ``scenario`` parameter: the name as given, or the file's absolute path. Raises SuiteError."""
     from sim_bridge.scenario import ScenarioError
@@ -121,11 +138,16 @@ def build_suite(args: argparse.Namespace) -> Supervisor:
     params: dict[str, list[str]] = {}
     if "sim" in nodes:
         params["sim"] = [f"scenario:={_scenario_param(args.scenario)}"]
+        topics = scenario_cloud_topics(args.scenario)
+        if len(topics) > 1:  # the consumers fuse every camera of the scenario
+            for node in CLOUD_CONSUMERS:
+                if node in nodes:
+                    params.setdefault(node, []).append(f"cloud_topics:=[{','.join(topics)}]")
     for text in args.param:
         node, assignment = parse_param(text)
         if node not in nodes:
             raise SuiteError(f"--param {text!r}: node {node!r} is not in the suite ({', '.join(nodes)})")
-        params.setdefault(node, []).append(assignment)
+        params.setdefault(node, []).append(assignment)  # after the defaults above, so the user's wins
     env = suite_env(args.domain_id, args.headless)
     return Supervisor(suite_specs(nodes, params, env))
 

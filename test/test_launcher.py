@@ -206,3 +206,18 @@ def test_launch_file_compiles_and_names_registered_executables(tmp_path):
 
 def test_setup_installs_the_launch_file():
     assert 'glob("launch/*.launch.py")' in (REPO / "setup.py").read_text()
+
+
+def test_the_consumers_fuse_every_camera_of_the_scenario():
+    from latent_planner_ros.launcher import build_suite, parse_args
+
+    def argv_of(*args: str) -> dict[str, tuple[str, ...]]:
+        return {s.name: s.argv for s in build_suite(parse_args(list(args))).specs}
+
+    shelf = argv_of("--scenario", "shelf", "--with-ompl")
+    topics = "cloud_topics:=[camera/points,shelf_front/points,shelf_side/points]"
+    for node in ("scene_encoder", "planner", "ompl_planner"):
+        assert topics in shelf[node], node
+    assert not any("cloud_topics" in a for a in argv_of("--scenario", "conveyor")["planner"])  # one camera: defaults
+    mine = argv_of("--scenario", "shelf", "--param", "planner:cloud_topics:=[camera/points]")["planner"]
+    assert mine.index("cloud_topics:=[camera/points]") > mine.index(topics)  # the user's assignment comes last
