@@ -28,8 +28,9 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from latent_planner_ros.data.camera import CameraConfig
 from latent_planner_ros.data.render import scene_view
-from latent_planner_ros.data.scene_generator import generate_scene
+from latent_planner_ros.data.scene_families import check_family, generate_family_scene
 from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.collision_io import (
     DEFAULT_COLLISION,
@@ -54,9 +55,10 @@ def teacher_samples(
     net, vae = predictor.net, predictor.vae
     enc = net.config.encoder
     rng = np.random.default_rng(seed)
+    camera = dataclasses.replace(CameraConfig(), crop_min=enc.bounds_min, crop_max=enc.bounds_max)
     xs, ys = [], []
     for _ in tqdm(range(scenes), desc=f"distil: {family} scenes", unit="scene", leave=False):
-        cloud, origin = scene_view(generate_scene(rng, family), rng)
+        cloud, origin = scene_view(generate_family_scene(rng, family), rng, camera)
         emb = predictor.encode(crop_to_bounds(cloud, enc.bounds_min, enc.bounds_max), origin)
         q = torch.as_tensor(rng.uniform(Q_MIN, Q_MAX, (per_scene, 7)), dtype=torch.float32)
         with torch.no_grad():
@@ -90,7 +92,7 @@ def distil(args: argparse.Namespace) -> tuple[CollisionNet, dict]:
     student.encoder.load_state_dict(teacher.encoder.state_dict())
     student.encoder.requires_grad_(False)
     torch.manual_seed(args.seed)
-    x, y = teacher_samples(predictor, student, args.scenes, "train", args.seed, args.per_scene)
+    x, y = teacher_samples(predictor, student, args.scenes, args.family, args.seed, args.per_scene)
     x, y = x.reshape(-1, x.shape[-1]), y.reshape(-1).clamp(-LOGIT_CLAMP, LOGIT_CLAMP)
     steps_per_epoch = max(1, len(x) // args.batch)
     opt = torch.optim.Adam(student.classifier.parameters(), lr=args.lr)
@@ -108,10 +110,10 @@ def distil(args: argparse.Namespace) -> tuple[CollisionNet, dict]:
         bar.set_postfix(mse=f"{loss.item():.4f}")
     student.eval()
     metrics = {"train_mse": loss.item()}
-    for family, seed in (("train", args.seed + 1), ("heldout", args.seed + 2)):
+    for name, family, seed in (("train", args.family, args.seed + 1), ("heldout", args.val_family, args.seed + 2)):
         vx, vy = teacher_samples(predictor, student, args.val_scenes, family, seed, args.per_scene)
         scores = agreement(student, vx, vy, args.threshold)
-        metrics.update({f"val_{family}_{k}": v for k, v in scores.items()})
+        metrics.update({f"val_{name}_{k}": v for k, v in scores.items()})
     return student, metrics
 
 
@@ -124,6 +126,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         "--no-latent", action="store_true", help="the student reads the link poses only, not the VAE latent z"
     )
     p.add_argument("--scenes", type=int, default=1500, help="training-family scenes to learn from")
+    p.add_argument("--family", default="train", help="scene family to learn from (data/scene_families.py)")
+    p.add_argument("--val-family", default="heldout", help="held-out scene family of the agreement metrics")
     p.add_argument("--val-scenes", type=int, default=60, help="scenes per family for the agreement metrics")
     p.add_argument("--per-scene", type=int, default=256, help="uniform joint configurations per scene")
     p.add_argument("--epochs", type=int, default=8)
@@ -140,6 +144,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         p.error("--hidden widths must be at least 1")
     if not (0.0 < args.threshold < 1.0) or not (args.lr > 0):
         p.error("--threshold must be in (0, 1) and --lr positive")
+    for family in (args.family, args.val_family):
+        try:
+            check_family(family)
+        except ValueError as e:
+            p.error(str(e))
     return args
 
 

@@ -105,6 +105,17 @@ def test_bad_arguments_and_a_missing_teacher_are_refused(tmp_path, capsys):
     assert e.value.code == 2 and "--hidden" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         parse_args(["--hidden", "8", "--out", str(tmp_path), "--epochs", "0"])
+    with pytest.raises(SystemExit):
+        parse_args(["--hidden", "8", "--out", str(tmp_path), "--family", "kitchen"])
+    assert "kitchen" in capsys.readouterr().err
     assert main(["--hidden", "8", "--out", str(tmp_path), "--teacher", str(tmp_path / "nope"), *TINY]) == 2
     assert "train distil" in capsys.readouterr().err
     assert not (tmp_path / "best.safetensors").exists()
+
+
+def test_distil_learns_from_the_families_it_is_given(tmp_path):
+    args = ["--hidden", "8", "--epochs", "1", "--out", str(tmp_path), "--family", "mix", "--val-family", "bin_heldout"]
+    assert main([*args, *TINY]) == 0
+    _, meta = load_collision_net(tmp_path / "best")
+    assert "--family mix" in meta["distil"]["command"]
+    assert 0.0 <= meta["distil"]["metrics"]["val_heldout_agreement"] <= 1.0
