@@ -26,6 +26,7 @@ from latent_planner_ros.data.camera import CameraConfig, planning_crop
 from latent_planner_ros.data.dataset import CollisionData, DatasetConfig, generate_dataset
 from latent_planner_ros.data.labels import CollisionLabeler, link_poses
 from latent_planner_ros.data.link_geometry import LABEL_LINKS, link_geometry
+from latent_planner_ros.data.obstacle_geometry import triangle_mesh
 from latent_planner_ros.data.queries import QuerySamplerConfig
 from latent_planner_ros.data.render import scene_cloud, scene_view
 from latent_planner_ros.models.checkpoint import CheckpointError
@@ -38,7 +39,7 @@ from latent_planner_ros.models.collision_metrics import (
     roc_curve,
 )
 from latent_planner_ros.models.collision_predictor import CollisionPredictor
-from latent_planner_ros.perception.scene_input import crop_to_bounds
+from latent_planner_ros.perception.scene_input import inside_bounds
 from latent_planner_ros.planning.learned_backend import CHECK_THRESHOLD
 
 BENCH_SEED = 1000
@@ -69,13 +70,29 @@ def geometric_score(q: np.ndarray, tree: cKDTree) -> np.ndarray:
     return -d.reshape(len(q), -1).min(1)
 
 
-def evaluate_family(pred: CollisionPredictor, data: CollisionData, seed: int, with_origin: bool = True) -> dict:
-    """Scores of the predictor and the geometric reference on every labelled configuration of `data`; the
-    predictor is given each cloud's camera origin unless with_origin is False.
+WORKCELL_VIEWS = 3
+"""cameras fused per workcell scene (furniture is seen into from several sides, as the workcell sets do)"""
 
-    Each cloud is cropped like the sim camera's (`planning_crop`, up to the arm's reach), as the planners get
-    it; the predictor encodes the points inside its network's box (as the planner and the scene_encoder node
-    crop them), the geometric reference uses them all."""
+
+def fused_view(scene, rng: np.random.Generator, camera: CameraConfig, views: int) -> tuple[np.ndarray, np.ndarray]:
+    """`views` random views of a scene fused: the cloud (N, 3) float32 [m] and the camera origin of each point
+    (N, 3); the views look at the centre of the scene's obstacles from all round (the default ranges)."""
+    corners = np.concatenate([triangle_mesh(o)[0] for o in scene.obstacles]) if scene.obstacles else np.zeros((1, 3))
+    aimed = replace(camera, target=tuple(float(v) for v in (corners.min(0) + corners.max(0)) / 2))
+    clouds, eyes = zip(*(scene_view(scene, rng, aimed) for _ in range(views)), strict=True)
+    origins = np.concatenate([np.repeat(e[None], len(c), 0) for c, e in zip(clouds, eyes, strict=True)])
+    return np.concatenate(clouds).astype(np.float32), origins.reshape(-1, 3).astype(np.float32)
+
+
+def evaluate_family(
+    pred: CollisionPredictor, data: CollisionData, seed: int, with_origin: bool = True, views: int = 1
+) -> dict:
+    """Scores of the predictor and the geometric reference on every labelled configuration of `data`; the
+    predictor is given each cloud's camera origin (one per point for several views) unless with_origin is False.
+
+    Each cloud (one random view, or `views` views fused: `fused_view`) is cropped like the sim camera's
+    (`planning_crop`, up to the arm's reach), as the planners get it; the predictor encodes the points inside its
+    network's box (as the planner and the scene_encoder node crop them), the geometric reference uses them all."""
     rng = np.random.default_rng(seed)
     low, high = planning_crop()
     camera = replace(CameraConfig(), crop_min=low, crop_max=high)
@@ -83,8 +100,10 @@ def evaluate_family(pred: CollisionPredictor, data: CollisionData, seed: int, wi
     p, link_p, geo, enc_ms, n_points = [], [], [], [], []
     scenes = tqdm(data.scenes, desc="bench collision: scoring scenes", unit="scene", leave=False)
     for i, scene in enumerate(scenes):
-        cloud, eye = scene_view(scene, rng, camera)
-        inside = crop_to_bounds(cloud, box.bounds_min, box.bounds_max)
+        cloud, eye = scene_view(scene, rng, camera) if views <= 1 else fused_view(scene, rng, camera, views)
+        keep = inside_bounds(cloud, box.bounds_min, box.bounds_max)
+        inside = cloud[keep]
+        eye = eye[keep] if eye.ndim == 2 else eye
         t0 = time.perf_counter()
         emb = pred.encode(inside, eye if with_origin else None)
         enc_ms.append((time.perf_counter() - t0) * 1000)
@@ -187,7 +206,8 @@ def score_families(pred: CollisionPredictor, families: list[str], args, box) -> 
     out = {}
     for k, family in enumerate(families):
         d = bench_data(args.data_dir, family, family, args.family_scenes, args.queries)
-        r = evaluate_family(pred, d, seed=BENCH_SEED + 10 + k)
+        tabletop = family in ("train", "heldout")
+        r = evaluate_family(pred, d, seed=BENCH_SEED + 10 + k, views=1 if tabletop else WORKCELL_VIEWS)
         s = summarise(family, d, r, args.threshold)
         outside = outside_box(d, box.bounds_min, box.bounds_max)
         s.update(box_split(family, d, r, outside, args.threshold))

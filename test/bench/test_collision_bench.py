@@ -84,3 +84,15 @@ def test_bench_collision_scores_each_extra_family_on_its_own(tmp_path):
 def test_bench_collision_refuses_an_unknown_family(tmp_path, capsys):
     assert bench_collision(["--out", str(tmp_path / "o"), "--families", "kitchen"]) == 2
     assert "kitchen" in capsys.readouterr().out and not (tmp_path / "o").exists()
+
+
+def test_workcell_scenes_are_scored_on_fused_views_of_their_furniture():
+    import numpy as np
+
+    from latent_planner_ros.bench.collision import fused_view
+    from latent_planner_ros.data.camera import CameraConfig
+    from latent_planner_ros.data.scene_families import generate_family_scene
+
+    scene = generate_family_scene(np.random.default_rng(0), "bin_heldout")
+    cloud, origins = fused_view(scene, np.random.default_rng(1), CameraConfig(), 3)
+    assert cloud.shape == origins.shape and len(np.unique(origins, axis=0)) == 3
