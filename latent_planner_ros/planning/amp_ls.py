@@ -315,6 +315,9 @@ class AmpLs(PlanAdditions):
             elif np.all(stalled):
                 reason = "no progress"
                 break
+            if cfg.timeout_s > 0 and time.perf_counter() - t0 > cfg.timeout_s:
+                reason = f"timeout ({cfg.timeout_s:g} s)"
+                break
             if time.perf_counter() > escape_at:  # the escape, once; if it fails, the latent search goes on
                 escape_at = np.inf
                 winner, escaped = self._escape_by_rrt(s, goal)

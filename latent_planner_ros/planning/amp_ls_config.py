@@ -88,6 +88,9 @@ class AmpLsConfig:
     rrt_escape_after_s: float = 0.25
     """open loop: wall time [s] of the latent search (from the start of the plan) after which the RRT escape
     runs (with rrt_escape_budget_s > 0); if it finds no path, the latent search goes on to its own end"""
+    timeout_s: float = 5.0
+    """open loop: give a plan up after this wall time [s] (checked after each step; the RRT escape's budget is
+    spent within it), as RRTConnect's 5 s; 0: the step budget alone (LSPP, whose plans take 5-8 s)"""
     shortcut: bool = True
     """open loop: shorten a successful path by straight joint-space shortcuts that pass the same hard check as
     the accepted steps (planning/shortcut.py; beyond the seed); with lazy_check, a seed reaching the goal first
@@ -163,6 +166,7 @@ class AmpLsConfig:
             "escape_rad",
             "rrt_escape_budget_s",
             "rrt_escape_after_s",
+            "timeout_s",
         ):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):

@@ -41,6 +41,7 @@ def lspp_seed_config(**overrides) -> AmpLsConfig:
         shortcut=False,
         goal_guidance=0,
         rrt_escape_budget_s=0.0,
+        timeout_s=0.0,
     )
     return replace(base, **overrides)
 
@@ -60,6 +61,7 @@ def lspp_config(**overrides) -> AmpLsConfig:
         shortcut=False,
         goal_guidance=0,
         rrt_escape_budget_s=0.0,
+        timeout_s=0.0,
     )
     return replace(base, **overrides)
 

@@ -203,3 +203,14 @@ def test_plan_timings_add_up_to_the_total_and_count_the_hard_checked_states(ship
     parts = sum(v for k, v in t.items() if k not in ("setup_s", "total_s"))
     assert parts == pytest.approx(t["total_s"], rel=1e-6)
     assert result.info["checked_states"] == backend.checked > 0
+
+
+def test_an_open_loop_plan_gives_up_at_its_timeout(shipped_vae):
+    far = Q_READY + np.array([1.5, 0.4, -0.6, 0.8, 0.5, -0.6, 0.9])
+    config = AmpLsConfig(use_collision=False, n_seeds=2, timeout_s=1e-6, rrt_escape_budget_s=0.0)
+    config.direct_first = False  # no straight segment: the latent search must run
+    result = AmpLs(shipped_vae, NoCollision(), config).plan(Q_READY, _goal_of(far))
+    assert not result.success and result.reason == "timeout (1e-06 s)"
+    assert len(result.q_path) >= 1 and np.array_equal(result.q_path[0], Q_READY)
+    with pytest.raises(ValueError, match="timeout_s"):
+        AmpLsConfig(timeout_s=-1.0)
