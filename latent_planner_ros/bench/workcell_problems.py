@@ -41,7 +41,7 @@ from latent_planner_ros.data.camera import CameraConfig, sample_camera_pose
 from latent_planner_ros.data.labels import CollisionLabeler
 from latent_planner_ros.data.obstacles import obstacle_from_dict, obstacle_to_dict
 from latent_planner_ros.data.scene import Scene
-from latent_planner_ros.data.workcell_cameras import workcell_viewpoints
+from latent_planner_ros.data.workcell_cameras import clutter_viewpoint, workcell_viewpoints
 from latent_planner_ros.data.workcell_clearance import ArmDistance
 from latent_planner_ros.data.workcell_generator import (
     REACH,
@@ -195,7 +195,11 @@ def default_workcell_cameras(
             pose = sample_camera_pose(rng, CameraConfig())
             views.append((pose[:3, 3], pose[:3, 3] + pose[:3, 2]))
     elif isinstance(scene_or_furniture, Workcell):
-        views = workcell_viewpoints(scene_or_furniture.furniture[0], rng, scene_or_furniture.scene.obstacles)
+        cell = scene_or_furniture
+        views = workcell_viewpoints(cell.furniture[0], rng, cell.scene.obstacles)
+        clutter = [o for o, g in zip(cell.scene.obstacles, cell.scene.groups, strict=True) if g > 0]
+        if clutter:  # objects beside the furniture (the mixed family): one of the views is theirs
+            views = views[:2] + [clutter_viewpoint(clutter, rng, cell.scene.obstacles)]
     else:
         views = workcell_viewpoints(scene_or_furniture, rng)
     return [CameraSpec(tuple(e.tolist()), tuple(t.tolist()), int(rng.integers(2**31))) for e, t in views]

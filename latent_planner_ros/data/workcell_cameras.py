@@ -89,3 +89,24 @@ def workcell_viewpoints(
                 break
         views.append((eye, target))
     return views
+
+
+def clutter_viewpoint(
+    targets: Sequence[Obstacle], rng: np.random.Generator, obstacles: Sequence[Obstacle]
+) -> tuple[np.ndarray, np.ndarray]:
+    """An (eye (3,), target (3,)) pair [m] in `world` that sees the objects `targets` (tabletop clutter beside the
+    furniture): from the default camera ranges around the centre of their bounding box, unblocked if possible."""
+    from dataclasses import replace
+
+    from latent_planner_ros.data.camera import CameraConfig, sample_camera_pose
+    from latent_planner_ros.data.obstacle_geometry import triangle_mesh
+
+    corners = np.concatenate([triangle_mesh(o)[0] for o in targets])
+    centre = (corners.min(0) + corners.max(0)) / 2
+    config = replace(CameraConfig(), target=tuple(float(v) for v in centre), target_jitter=0.03)
+    for _ in range(20):
+        pose = sample_camera_pose(rng, config)
+        eye, target = pose[:3, 3], pose[:3, 3] + pose[:3, 2]
+        if _ok(eye, target, obstacles):
+            break
+    return eye, target

@@ -88,3 +88,20 @@ def test_cli_writes_a_workcell_set(tmp_path):
     assert main(["--family", "wall", "--goal", "pregrasp", "--problems", "1", "--seed", "5", "--out", str(out)]) == 0
     s = load_scenarios(out)
     assert s.name == "wall_heldout" and s.problems[0].family == "wall" and len(s.problems[0].cameras) >= 2
+
+
+def test_the_cameras_of_a_mixed_cell_also_see_the_clutter_beside_the_furniture():
+    from scipy.spatial import cKDTree
+
+    from latent_planner_ros.bench.scenarios import ScenarioProblem
+    from latent_planner_ros.bench.table import problem_cloud
+    from latent_planner_ros.data.obstacle_geometry import triangle_mesh
+
+    cell = generate_workcell_layout(np.random.default_rng(5), "mixed", split="heldout")
+    cams = default_workcell_cameras(cell, np.random.default_rng(0))
+    assert len(cams) == 3
+    problem = ScenarioProblem(np.zeros(7), np.zeros(3), np.array([0.0, 0, 0, 1]), cell.scene.obstacles, None, cams)
+    tree = cKDTree(problem_cloud(problem, 0, table=True)[0])
+    for obstacle, group in zip(cell.scene.obstacles, cell.scene.groups, strict=True):
+        if group > 0:  # a tabletop object: some of its vertices have a cloud point within 2 cm
+            assert (tree.query(triangle_mesh(obstacle)[0])[0] < 0.02).any()
