@@ -95,6 +95,10 @@ class ForeignLatentBackend:
     def set_scene(self, scene, origin: np.ndarray | None = None) -> None:
         self.inner.set_scene(scene, origin)
 
+    @property
+    def mode(self) -> str:
+        return self.inner.mode
+
     def p_collision(self, q, z):
         own = self.inner.predictor.latent_of(q.float())
         return self.inner.p_collision(q, own).to(z.dtype)
@@ -187,6 +191,7 @@ class TableRunner:
                     "cameras": max(1, len(problem.cameras)),
                     "timings": {k: float(v) for k, v in result.timings.items()},
                     "checked_states": int(result.info.get("checked_states", -1)),
+                    "collision_backend": str(result.info.get("collision_backend", "")),
                 }
             )
         return rows

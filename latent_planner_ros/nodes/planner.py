@@ -323,6 +323,7 @@ class PlannerNode(Node):
         values = {
             "state": o.state,
             "mode": self.modes.describe(),
+            "collision_backend": getattr(self.modes.active.planner.backend, "mode", ""),
             "obstacles_note": self._obstacle_notes,
             "last_error": self._last_error,
             "cloud_points_in": points_in,

@@ -345,6 +345,7 @@ class AmpLs(PlanAdditions):
         self._escape_from = None
         result = self._result(s, q_path, winner, goal, reason, time.perf_counter() - t0, t_setup, escaped)
         result.info["start_refused"] = start_refused
+        result.info["collision_backend"] = getattr(self.backend, "mode", getattr(self.backend, "name", ""))
         result.info["goal_configurations"] = -1 if s.goal_qs is None else len(s.goal_qs)  # -1: not searched
         result.info["guided"] = bool(np.isfinite(s.guide_q[winner, 0]))
         result.info["direct_first"] = straight  # solved by the straight segment before any optimisation step

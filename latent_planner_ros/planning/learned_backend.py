@@ -20,10 +20,14 @@ from latent_planner_ros.models.scene_encoder import SceneEmbedding
 from latent_planner_ros.perception.scene_input import inside_bounds
 from latent_planner_ros.planning.ball_query import finite_rows
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
+from latent_planner_ros.planning.network_domain import share_outside
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.torch_fk import TorchFK
 from msg_adapters import cloud_to_embedding
 
+DOMAIN_SHARE = 0.2
+"""default `domain_share`: on the shipped sets' clouds, no tabletop scene has more than 0.18 of its occupied
+voxels outside the shipped network's box, and 48 of the first 60 workcell scenes have more than 0.2"""
 CHECK_THRESHOLD = 0.2
 """p(collision) at or above which the hard check refuses a configuration: the lowest threshold that keeps the
 shipped network's precision on near-object queries of the held-out family's validation scenes at 0.88 or more
@@ -38,14 +42,27 @@ class LearnedBackend:
         predictor: the collision network and the VAE it reads.
         threshold: p(collision) at or above which `check` calls a configuration colliding.
         geometric_check: also refuse configurations whose spheres contain an observed point (needs a cloud).
+        domain_share: a scene with more than this share of its occupied voxels outside the network's box
+            (planning/network_domain.py: a workcell, not the tabletop it learned) is planned with the geometric
+            backend instead, and `mode` says so; 1.0 = the network always.
     """
 
     name = "learned"
 
-    def __init__(self, predictor: CollisionPredictor, threshold: float = CHECK_THRESHOLD, geometric_check: bool = True):
+    def __init__(
+        self,
+        predictor: CollisionPredictor,
+        threshold: float = CHECK_THRESHOLD,
+        geometric_check: bool = True,
+        domain_share: float = DOMAIN_SHARE,
+    ):
         self.predictor = predictor
         self.threshold = float(threshold)
+        self.domain_share = float(domain_share)
+        self.mode = "learned"
+        """"learned", or "geometric" while the scene lies beyond the network's box (see domain_share)"""
         self.geometric = GeometricBackend() if geometric_check else None
+        self._fallback: GeometricBackend | None = None  # the geometric backend of scenes beyond the box
         self.embedding: SceneEmbedding = predictor.encode(np.zeros((0, 3), dtype=np.float32))
         self._fk = TorchFK()  # every link frame, for the hard check
         self._label_frames = [LINK_FRAMES.index(name) for name in LABEL_LINKS]  # the network's links among them
@@ -83,6 +100,8 @@ class LearnedBackend:
             else:
                 raise ValueError(f"origin: expected shape (3,) or ({len(cloud)}, 3), got {origin.shape}")
         cloud = cloud[keep]
+        if self._beyond_box(cloud):
+            return
         enc = self.predictor.net.config.encoder  # the network sees its workspace box, as in training
         inside = inside_bounds(cloud, enc.bounds_min, enc.bounds_max)
         if origin is not None and origin.ndim == 2:
@@ -91,9 +110,23 @@ class LearnedBackend:
         self.set_cloud(cloud)
 
     def set_cloud(self, cloud: np.ndarray) -> None:
-        """The raw cloud (N, 3) [m] for the geometric part of the hard check."""
+        """The raw cloud (N, 3) [m] for the geometric part of the hard check (and the choice of `mode`: with an
+        embedding from the scene_encoder node, this is where the planner sees how far the scene reaches)."""
+        if self._beyond_box(cloud):
+            return
         if self.geometric is not None:
             self.geometric.set_check_cloud(cloud)
+
+    def _beyond_box(self, cloud: np.ndarray) -> bool:
+        """Set `mode` for cloud (N, 3) [m]; in geometric mode, give the cloud to the geometric backend."""
+        enc = self.predictor.net.config.encoder
+        self.mode = "learned"
+        if self.domain_share >= 1.0 or share_outside(cloud, enc.bounds_min, enc.bounds_max) <= self.domain_share:
+            return False
+        self.mode = "geometric"
+        self._fallback = self._fallback or GeometricBackend()
+        self._fallback.set_scene(cloud)
+        return True
 
     def embedding_from_msg(self, msg) -> SceneEmbedding:
         """Decode a `scene_embedding` PointCloud2 (voxel centres + float32 fields f0..); AdapterError/ValueError."""
@@ -106,6 +139,8 @@ class LearnedBackend:
     def p_collision(self, q: torch.Tensor, z: torch.Tensor, frames: torch.Tensor | None = None) -> torch.Tensor:
         """p(collision) (B,) of decoded configurations q (B, 7) with their latents z (B, L); differentiable.
         frames: the poses (B, len(LINK_FRAMES), 4, 4) [m] of q's link frames if already computed (TorchFK)."""
+        if self.mode == "geometric":
+            return self._fallback.p_collision(q, z).to(z.dtype)
         poses = None if frames is None else frames[:, self._label_frames].float()
         logits = self.predictor.link_logits_q(self.embedding, q.float(), z.float(), poses)
         return torch.sigmoid(self.predictor.net.combine(logits)).to(z.dtype)
@@ -114,6 +149,8 @@ class LearnedBackend:
         """Hard decision (M,) bool for configurations q (M, 7) [rad]."""
         q = np.atleast_2d(np.asarray(q, dtype=np.float64))
         frames = self._fk.frames_np(q)  # (M, F, 4, 4): one FK for both parts of the check
+        if self.mode == "geometric":
+            return self._fallback.check_frames(frames)
         # the cheaper geometric check first: the network only sees the configurations it left open
         hits = self.geometric.check_frames(frames) if self.geometric is not None else np.zeros(len(q), dtype=bool)
         todo = np.flatnonzero(~hits)

@@ -1,0 +1,33 @@
+"""Whether a scene lies where the collision network was trained: the share of it outside the network's box.
+
+The shipped network learned tabletop scenes inside its workspace box. A workcell (shelves, bins, cages, walls
+all around the base) puts most of the scene outside that box, where the network is never given the points and
+refuses free space it has not seen the like of; the learned backend then plans with the geometric backend
+instead (planning/learned_backend.py), and says so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+VOXEL_M = 0.1
+"""edge [m] of the voxels the share is counted in"""
+FLOOR_M = 0.02
+"""points below this height [m] (the table top, checked exactly) are not part of the scene here"""
+MIN_POINTS = 3
+"""a voxel counts as occupied with at least this many points (stray depth noise far away does not)"""
+
+
+def share_outside(cloud: np.ndarray, bounds_min, bounds_max) -> float:
+    """The share in [0, 1] of the occupied VOXEL_M voxels above FLOOR_M whose centre lies outside the box
+    [bounds_min, bounds_max] (3,) [m]; 0 for a cloud (N, 3) [m] with nothing above the floor."""
+    pts = np.asarray(cloud, dtype=float).reshape(-1, 3)
+    pts = pts[np.isfinite(pts).all(axis=1) & (pts[:, 2] >= FLOOR_M)]
+    if not len(pts):
+        return 0.0
+    cells, counts = np.unique(np.floor(pts / VOXEL_M).astype(np.int64), axis=0, return_counts=True)
+    centres = (cells[counts >= MIN_POINTS] + 0.5) * VOXEL_M
+    if not len(centres):
+        return 0.0
+    out = np.any((centres < np.asarray(bounds_min)) | (centres > np.asarray(bounds_max)), axis=1)
+    return float(out.mean())
