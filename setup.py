@@ -18,11 +18,14 @@ setup(
     packages=find_packages(
         include=[PACKAGE, f"{PACKAGE}.*", "sim_bridge", "sim_bridge.*", "msg_adapters", "msg_adapters.*"]
     ),
-    package_data={
-        f"{PACKAGE}.checkpoints": ["*.safetensors", "*.json"],
-        f"{PACKAGE}.bench": ["scenarios/*.json"],
-        "sim_bridge": ["models/*.xml"],
-    },
+    # The MJCF models stay inside sim_bridge (sim_bridge/mjcf.py loads them next to itself; scene.xml includes
+    # robot.xml relative to its own file).
+    package_data={"sim_bridge": ["models/*.xml"]},
+    # Shipped data (weights, benchmark scenario sets, node and scenario YAMLs) goes to share/latent_planner_ros
+    # only, as ROS tools expect (ament index, `ros2 pkg prefix --share`, FindPackageShare), one 13 MB copy per
+    # install; latent_planner_ros/resources.py finds it there, or in the source tree for editable and
+    # --symlink-install builds. A pip wheel puts data_files under its prefix too, so pip installs find it the same
+    # way.
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
@@ -33,6 +36,7 @@ setup(
             f"share/{PACKAGE}/checkpoints",
             glob(f"{PACKAGE}/checkpoints/*.safetensors") + glob(f"{PACKAGE}/checkpoints/*.json"),
         ),
+        (f"share/{PACKAGE}/bench/scenarios", glob(f"{PACKAGE}/bench/scenarios/*.json")),
     ],
     install_requires=["setuptools"],
     zip_safe=False,

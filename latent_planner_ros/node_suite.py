@@ -17,6 +17,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from latent_planner_ros.registry import NODES
+from latent_planner_ros.resources import resource_dirs
 from latent_planner_ros.supervisor import ProcessSpec
 
 PACKAGE = "latent_planner_ros"
@@ -35,18 +36,12 @@ class SuiteError(ValueError):
 def config_dirs() -> list[Path]:
     """Directories searched for ``<node>.yaml``, first match wins.
 
-    ``$LATENT_PLANNER_CONFIG`` (os.pathsep-separated), the source tree's ``config`` (editable installs),
-    then ``share/latent_planner_ros/config`` under the install prefix: the ancestors of this module (pip into
-    any prefix, colcon's install/<pkg>), ``sys.prefix``, and every ``$AMENT_PREFIX_PATH`` entry.
+    ``$LATENT_PLANNER_CONFIG`` (os.pathsep-separated), then the source tree's ``config`` (editable installs)
+    and an install's ``share/latent_planner_ros/config`` (ament index, install prefix, ``sys.prefix``), as
+    :func:`latent_planner_ros.resources.resource_dirs` lists them.
     """
-    here = Path(__file__).resolve()
     dirs = [Path(p) for p in os.environ.get("LATENT_PLANNER_CONFIG", "").split(os.pathsep) if p]
-    dirs.append(here.parents[1] / "config")
-    share = Path("share") / PACKAGE / "config"
-    dirs += [ancestor / share for ancestor in here.parents[1:6]]
-    dirs.append(Path(sys.prefix) / share)
-    dirs += [Path(p) / share for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
-    return list(dict.fromkeys(dirs))
+    return list(dict.fromkeys([*dirs, *resource_dirs("config")]))
 
 
 def find_params_file(node: str) -> Path | None:

@@ -13,7 +13,6 @@ Names are looked up as ``<name>.yaml`` in :func:`scenario_dirs`; a path to a fil
 from __future__ import annotations
 
 import os
-import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -21,6 +20,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from latent_planner_ros.resources import resource_dirs
 from sim_bridge.conveyor import ConveyorParams, conveyor
 from sim_bridge.placement import params_from_dict
 from sim_bridge.scenario import Scenario, ScenarioError, cameras_from_dict, scenario_from_dict
@@ -45,19 +45,12 @@ GENERATORS: dict[str, tuple[Callable[..., Scenario], type | None]] = {
 def scenario_dirs() -> list[Path]:
     """Directories searched for ``<name>.yaml``, first match wins.
 
-    ``$LATENT_PLANNER_SCENARIOS`` (os.pathsep-separated), the source tree's ``config/scenarios`` (editable
-    installs), then ``share/latent_planner_ros/config/scenarios`` under the install prefix: the ancestors of
-    this module (pip into any prefix, colcon's install/<pkg>), ``sys.prefix``, and every ``$AMENT_PREFIX_PATH``
-    entry.
+    ``$LATENT_PLANNER_SCENARIOS`` (os.pathsep-separated), then the source tree's ``config/scenarios`` (editable
+    installs) and an install's ``share/latent_planner_ros/config/scenarios`` (ament index, install prefix,
+    ``sys.prefix``), as :func:`latent_planner_ros.resources.resource_dirs` lists them.
     """
-    here = Path(__file__).resolve()
     dirs = [Path(p) for p in os.environ.get("LATENT_PLANNER_SCENARIOS", "").split(os.pathsep) if p]
-    dirs.append(here.parents[1] / "config" / "scenarios")
-    share = Path("share") / PACKAGE / "config" / "scenarios"
-    dirs += [ancestor / share for ancestor in here.parents[1:6]]
-    dirs.append(Path(sys.prefix) / share)
-    dirs += [Path(p) / share for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
-    return list(dict.fromkeys(dirs))
+    return list(dict.fromkeys([*dirs, *resource_dirs("config/scenarios")]))
 
 
 def available_scenarios() -> list[str]:

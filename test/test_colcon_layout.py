@@ -1,11 +1,14 @@
 """`colcon build` of the package in a fresh workspace gives the layout `ros2 run` expects.
 
 ROS users build the package with colcon (ament_python); setup.cfg must put the node executables in
-lib/latent_planner_ros and setup.py must install package.xml and the ament index marker.
+lib/latent_planner_ros and setup.py must install package.xml, the ament index marker and the shipped files
+(weights, scenario sets, YAMLs) in share/latent_planner_ros, where the installed code finds them without the
+source tree (latent_planner_ros/resources.py).
 """
 
 from __future__ import annotations
 
+import json
 import os
 import random
 import shutil
@@ -42,7 +45,10 @@ def site_packages(prefix: Path) -> Path:
 
 @pytest.fixture(scope="module")
 def install(tmp_path_factory) -> Path:
-    """Build a copy of the package sources in a fresh workspace; returns install/latent_planner_ros."""
+    """Build a copy of the package sources in a fresh workspace; returns install/latent_planner_ros.
+
+    The workspace's src/ and build/ are removed afterwards, so only the install can serve files.
+    """
     colcon = BIN / "colcon"
     if not colcon.exists():
         pytest.skip(f"colcon not installed next to {sys.executable}")
@@ -68,6 +74,8 @@ def install(tmp_path_factory) -> Path:
         timeout=BUILD_TIMEOUT_S,
     )
     assert proc.returncode == 0, f"colcon build failed:\n{proc.stdout[-5000:]}\n{proc.stderr[-5000:]}"
+    shutil.rmtree(ws / "src")
+    shutil.rmtree(ws / "build")
     return ws / "install" / PACKAGE
 
 
@@ -92,6 +100,66 @@ def test_sim_executable(install):
         pytest.skip("sim_bridge does not exist (yet) in this checkout")
     assert_executable(install / "lib" / PACKAGE / "sim")
     assert (site_packages(install) / "sim_bridge" / "__init__.py").is_file()
+
+
+def installed_env(install: Path, ament: bool) -> dict[str, str]:
+    """The environment of a process that imports the package from `install` only (PYTHONPATH first), with
+    ``$AMENT_PREFIX_PATH`` set to the install prefix (a sourced workspace) or unset."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(site_packages(install)), *filter(None, [env.get("PYTHONPATH")])])
+    env.pop("AMENT_PREFIX_PATH", None)
+    if ament:
+        env["AMENT_PREFIX_PATH"] = str(install)
+    return env
+
+
+FIND_SHIPPED = """
+import json
+import latent_planner_ros
+from latent_planner_ros import resources
+from latent_planner_ros.bench.scenarios import DEFAULT_SET
+from latent_planner_ros.models.collision_io import PLANNER_COLLISION, shipped_collision_path
+from latent_planner_ros.models.cylinder_classifier import shipped_classifier_path
+from latent_planner_ros.models.vae_io import load_vae, shipped_vae_path
+from latent_planner_ros.node_suite import find_params_file
+from sim_bridge.scenario_files import find_scenario_file
+
+vae, _ = load_vae()
+print(json.dumps({
+    "module": latent_planner_ros.__file__,
+    "ament_share": str(resources.ament_share_dir()),
+    "vae": str(shipped_vae_path().with_suffix(".safetensors")),
+    "collision": str(shipped_collision_path().with_suffix(".safetensors")),
+    "collision_planner": str(shipped_collision_path(PLANNER_COLLISION).with_suffix(".safetensors")),
+    "lspp": str(shipped_classifier_path().with_suffix(".safetensors")),
+    "scenario_set": str(DEFAULT_SET),
+    "planner_yaml": str(find_params_file("planner")),
+    "conveyor_yaml": str(find_scenario_file("conveyor")),
+}))
+"""
+"""Prints where the installed code finds each shipped file (JSON), after loading the shipped VAE."""
+
+
+@pytest.mark.parametrize("ament", [True, False], ids=["sourced", "not_sourced"])
+def test_installed_package_finds_shipped_files(install, ament):
+    """Without a source tree, the weights, the scenario set and the YAMLs come from the install's share/;
+    through the ament index when the workspace is sourced, from the install prefix of the code otherwise."""
+    proc = subprocess.run(
+        [sys.executable, "-c", FIND_SHIPPED],
+        cwd=install.parent.parent,
+        env=installed_env(install, ament),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, f"{proc.stdout}\n{proc.stderr}"
+    found = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert Path(found.pop("module")).is_relative_to(site_packages(install))
+    share = install / "share" / PACKAGE
+    assert found.pop("ament_share") == (str(share) if ament else "None")
+    for what, path in found.items():
+        assert Path(path).is_relative_to(share), f"{what}: {path} is not in {share}"
+        assert Path(path).is_file(), f"{what}: {path} missing"
 
 
 def test_installed_robot_info_runs(install):

@@ -42,10 +42,12 @@ import numpy as np
 from latent_planner_ros.data.camera import look_at
 from latent_planner_ros.data.obstacles import Obstacle, obstacle_from_dict, obstacle_to_dict
 from latent_planner_ros.data.scene import Scene
+from latent_planner_ros.resources import find_resource
 from latent_planner_ros.robot.limits import Q_MAX, Q_MIN
 
-DEFAULT_SET = Path(__file__).resolve().parent / "scenarios" / "tabletop_heldout_100.json"
-"""The shipped default set: 100 held-out tabletop scenes (written by `bench.scenario_generator`)."""
+DEFAULT_SET = find_resource("bench/scenarios", "tabletop_heldout_100.json")
+"""The shipped default set: 100 held-out tabletop scenes (written by `bench.scenario_generator`); the checkout's
+latent_planner_ros/bench/scenarios, or an install's share/latent_planner_ros/bench/scenarios."""
 
 LIMIT_SLACK = 1e-3
 """start / goal_q may lie this far [rad] outside the joint limits (rounding)"""

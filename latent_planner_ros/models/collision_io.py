@@ -9,10 +9,12 @@ from latent_planner_ros.models.checkpoint import CheckpointError, load_model, sa
 from latent_planner_ros.models.collision_net import CollisionNet
 from latent_planner_ros.models.collision_net_config import CollisionNetConfig
 from latent_planner_ros.models.scene_encoder import SceneEncoder
+from latent_planner_ros.resources import SOURCE_DIRS, shipped_checkpoint
 
-CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
+CHECKPOINT_DIR = SOURCE_DIRS["checkpoints"]
+"""Where training ships weights (the package's own checkpoints directory); an install reads share/ as well."""
 DEFAULT_COLLISION = "collision"
-"""Stem of the shipped collision network in CHECKPOINT_DIR (the scene encoder node's, and the teacher of
+"""Stem of the shipped collision network (the scene encoder node's, and the teacher of
 PLANNER_COLLISION)."""
 PLANNER_COLLISION = "collision_distilled"
 """Stem of the shipped collision predictor the planners use by default: DEFAULT_COLLISION with its per-link
@@ -21,8 +23,8 @@ KIND = "collision_net"
 
 
 def shipped_collision_path(name: str = DEFAULT_COLLISION) -> Path:
-    """Path stem of a shipped collision checkpoint."""
-    return CHECKPOINT_DIR / name
+    """Path stem of a shipped collision checkpoint, found by resources.shipped_checkpoint."""
+    return shipped_checkpoint(name)
 
 
 def file_sha256(path: str | Path) -> str:

@@ -16,8 +16,10 @@ from torch import nn
 
 from latent_planner_ros.models.checkpoint import load_model, save_checkpoint
 from latent_planner_ros.models.mlp import mlp
+from latent_planner_ros.resources import SOURCE_DIRS, shipped_checkpoint
 
-CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
+CHECKPOINT_DIR = SOURCE_DIRS["checkpoints"]
+"""Where training ships weights (the package's own checkpoints directory); an install reads share/ as well."""
 DEFAULT_CYLINDER_CLASSIFIER = "lspp_classifier"
 KIND = "lspp_cylinder_classifier"
 
@@ -65,7 +67,8 @@ class CylinderClassifier(nn.Module):
 
 
 def shipped_classifier_path(name: str = DEFAULT_CYLINDER_CLASSIFIER) -> Path:
-    return CHECKPOINT_DIR / name
+    """Path stem of a shipped cylinder classifier checkpoint, found by resources.shipped_checkpoint."""
+    return shipped_checkpoint(name)
 
 
 def save_classifier(stem: str | Path, model: CylinderClassifier, metadata: dict) -> Path:

@@ -7,15 +7,17 @@ from pathlib import Path
 from latent_planner_ros.models.checkpoint import load_model, save_checkpoint
 from latent_planner_ros.models.vae import RobotStateVAE
 from latent_planner_ros.models.vae_config import VaeConfig
+from latent_planner_ros.resources import SOURCE_DIRS, shipped_checkpoint
 
-CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
+CHECKPOINT_DIR = SOURCE_DIRS["checkpoints"]
+"""Where training ships weights (the package's own checkpoints directory); an install reads share/ as well."""
 DEFAULT_VAE = "vae_kinematic"
-"""Stem of the shipped default VAE in CHECKPOINT_DIR."""
+"""Stem of the shipped default VAE."""
 
 
 def shipped_vae_path(name: str = DEFAULT_VAE) -> Path:
-    """Path stem of a shipped VAE checkpoint (`vae_kinematic` or `vae_plain`)."""
-    return CHECKPOINT_DIR / name
+    """Path stem of a shipped VAE checkpoint (`vae_kinematic` or `vae_plain`), found by resources.shipped_checkpoint."""
+    return shipped_checkpoint(name)
 
 
 def save_vae(stem: str | Path, model: RobotStateVAE, metadata: dict) -> Path:
