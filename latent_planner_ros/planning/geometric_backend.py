@@ -59,6 +59,12 @@ class GeometricBackend:
         self._sphere_centre = np.concatenate([self.spheres.centre[moving], np.ones((int(moving.sum()), 1))], 1)
         self._check_radius = np.maximum(self.spheres.radius[moving] + self.config.check_margin, 0.0)
         self._hulls = link_hull_planes()
+        # per moving sphere, the radius [m] of the ball about its centre that lies inside its link's hull (0 if the
+        # centre is outside it): a point that close to the centre is inside the hull
+        self._core = np.array([
+            max(0.0, -plane_distance(self._hulls[lk], c[None, :3])[0])
+            for lk, c in zip(self._sphere_link, self._sphere_centre, strict=True)
+        ])  # fmt: skip
         self._lo = np.asarray(self.config.bounds_min, dtype=float)
         self._hi = np.asarray(self.config.bounds_max, dtype=float)
         self.set_scene(np.zeros((0, 3)))
@@ -128,6 +134,15 @@ class GeometricBackend:
         """(M,) bool: configurations with an observed point that lies inside one of their hit spheres (M, S) and
         within exact_margin of that sphere's link hull; frames (M, F, 4, 4), centres (M, S, 3) [m]."""
         m_idx, s_idx = np.nonzero(hit)
+        # sure hits first: a point within core + margin of a sphere's centre is within margin of the hull, since
+        # the ball of radius core about that centre lies inside the hull (one nearest-point query per hit)
+        nearest, _ = self._balls._kdtree().query(centres[m_idx, s_idx])
+        out = np.zeros(len(frames), dtype=bool)
+        out[m_idx[nearest <= self._core[s_idx] + self.config.exact_margin]] = True
+        open_ = ~out[m_idx]
+        m_idx, s_idx = m_idx[open_], s_idx[open_]
+        if not len(m_idx):
+            return out
         lists = self._balls._kdtree().query_ball_point(centres[m_idx, s_idx], self._check_radius[s_idx])
         counts = np.fromiter((len(p) for p in lists), dtype=int, count=len(lists))
         pair = np.repeat(np.arange(len(lists)), counts)
@@ -139,6 +154,5 @@ class GeometricBackend:
         for lk in np.unique(link):
             sel = link == lk
             close[sel] = plane_distance(self._hulls[lk], local[sel]) <= self.config.exact_margin
-        out = np.zeros(len(frames), dtype=bool)
         out[m_idx[pair[close]]] = True
         return out
