@@ -11,26 +11,23 @@ from functools import lru_cache
 import numpy as np
 from scipy.spatial import ConvexHull
 
-from latent_planner_ros.robot.panda import LINK_FRAMES, load_panda
+from latent_planner_ros.robot.panda import LINK_FRAMES
+from latent_planner_ros.robot.spheres import link_geometry_objects
 
 
 def link_vertices() -> dict[str, np.ndarray]:
     """The vertices (N, 3) [m] of each link's collision geometry in its link frame: mesh vertices and box corners
     (so their hull contains the geometry exactly)."""
-    panda = load_panda()
     out: dict[str, list[np.ndarray]] = {}
-    for g in panda.collision_model.geometryObjects:
-        frame = panda.model.frames[g.parentFrame]
-        to_frame = frame.placement.inverse() * g.placement
-        geo = g.geometry
+    for name, geo, to_frame in link_geometry_objects():
         if hasattr(geo, "vertices"):
             local = np.asarray(geo.vertices())
         elif hasattr(geo, "halfSide"):
             corners = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=float)
             local = corners * np.asarray(geo.halfSide)
         else:
-            raise NotImplementedError(f"no vertices for {type(geo).__name__} ({g.name})")
-        out.setdefault(frame.name, []).append(local @ to_frame.rotation.T + to_frame.translation)
+            raise NotImplementedError(f"no vertices for {type(geo).__name__} ({name})")
+        out.setdefault(name, []).append(local @ to_frame.rotation.T + to_frame.translation)
     return {k: np.concatenate(v) for k, v in out.items()}
 
 

@@ -59,14 +59,20 @@ class SphereModel:
         return (torch.relu(r - centres[..., 2]) * movable).sum(-1)
 
 
-def _link_points(rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """Points (N, 3) of each link's collision geometry in its link frame."""
+def link_geometry_objects() -> list[tuple[str, object, pin.SE3]]:
+    """(link frame name, coal geometry, its placement in the link frame) of every collision geometry object."""
     panda = load_panda()
-    pts: dict[str, list[np.ndarray]] = {}
+    out = []
     for g in panda.collision_model.geometryObjects:
         frame = panda.model.frames[g.parentFrame]
-        to_frame = frame.placement.inverse() * g.placement
-        geo = g.geometry
+        out.append((frame.name, g.geometry, frame.placement.inverse() * g.placement))
+    return out
+
+
+def _link_points(rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """Points (N, 3) of each link's collision geometry in its link frame."""
+    pts: dict[str, list[np.ndarray]] = {}
+    for name, geo, to_frame in link_geometry_objects():
         if hasattr(geo, "vertices"):
             local = np.asarray(geo.vertices())
         elif hasattr(geo, "halfSide"):
@@ -75,9 +81,9 @@ def _link_points(rng: np.random.Generator) -> dict[str, np.ndarray]:
             axis = rng.integers(0, 3, 400)
             local[np.arange(400), axis] = np.sign(local[np.arange(400), axis]) * h[axis]
         else:
-            raise NotImplementedError(f"no point sampler for {type(geo).__name__} ({g.name})")
+            raise NotImplementedError(f"no point sampler for {type(geo).__name__} ({name})")
         world = (to_frame.rotation @ local.T).T + to_frame.translation
-        pts.setdefault(frame.name, []).append(world)
+        pts.setdefault(name, []).append(world)
     return {k: np.concatenate(v) for k, v in pts.items()}
 
 
