@@ -12,6 +12,7 @@ from msg_adapters.cylinder_markers import (
 from msg_adapters.diagnostics import status_array
 from msg_adapters.errors import AdapterError
 from msg_adapters.joint_state import joint_state_to_q, q_to_joint_state
+from msg_adapters.plan_request import plan_result_status, plan_tolerance
 from msg_adapters.point_cloud import cloud_to_fields, cloud_to_xyz, feature_names, xyz_to_cloud
 from msg_adapters.pose import PoseTarget, pose_stamped_to_target, target_to_pose_stamped
 from msg_adapters.scene_embedding import cloud_to_embedding, embedding_to_cloud
@@ -33,6 +34,8 @@ __all__ = [
     "joint_path_to_trajectory",
     "joint_state_to_q",
     "path_to_arrays",
+    "plan_result_status",
+    "plan_tolerance",
     "pose_stamped_to_target",
     "q_to_joint_state",
     "status_array",

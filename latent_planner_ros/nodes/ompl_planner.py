@@ -5,9 +5,11 @@ fused in `frame_id` at each plan (perception/cloud_fusion.py: one stamped more t
 newest is left out and named on status; a cloud in another frame is refused with the topic and reason).
 Service ~/plan (nav_msgs/GetPlan): `goal` = TCP target pose,
 `start` ignored (the current joint state is the start), `tolerance` = position tolerance [m] (0: the
-configured one); the response is the end-effector path, empty on failure. Publishes ~/trajectory (the joint
-trajectory, same header stamp as the returned Path), ~/markers, ~/status (state, reason of the last failure,
-timings) and, with `execute`, joint_command at `command_rate_hz` along the trajectory.
+configured one; NaN, inf or negative: refused); the response is the end-effector path, empty on failure.
+Publishes ~/trajectory (the joint trajectory, same header stamp as the returned Path), ~/markers, ~/status (state,
+reason of the last failure, timings), ~/plan_result (diagnostic_msgs/DiagnosticStatus: the outcome of every
+~/plan request, OK on success, ERROR on a failure or refusal) and, with `execute`, joint_command at
+`command_rate_hz` along the trajectory.
 Parameters: OmplPlannerNodeConfig (config/ompl_planner.yaml), validated; a bad value is refused with a reason.
 
     python -m latent_planner_ros run ompl_planner [--ros-args --params-file config/ompl_planner.yaml]
@@ -20,7 +22,7 @@ import sys
 from functools import partial
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
@@ -42,10 +44,13 @@ from msg_adapters import (
     ee_path_to_path,
     joint_path_to_trajectory,
     joint_state_to_q,
+    plan_result_status,
+    plan_tolerance,
     pose_stamped_to_target,
     q_to_joint_state,
     status_array,
 )
+from msg_adapters.plan_request import FAILED, REFUSED, SUCCESS
 from sim_bridge.params import ConfigError, from_params, to_params
 
 OK, WARN = 0, 1
@@ -72,6 +77,7 @@ class OmplPlannerNode(Node):
         self.pub_traj = self.create_publisher(JointTrajectory, "~/trajectory", 10)
         self.pub_markers = self.create_publisher(MarkerArray, "~/markers", 10)
         self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
+        self.pub_plan_result = self.create_publisher(DiagnosticStatus, "~/plan_result", 10)
         self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
         for cloud_topic in self.config.cloud_topics:
             self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2)
@@ -130,28 +136,37 @@ class OmplPlannerNode(Node):
 
     # -- planning -----------------------------------------------------------------------------------
     def _on_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
+        """Plan once; every request, refused or planned, is answered on ~/plan_result as well."""
         response.plan = Path()
         response.plan.header.frame_id = self.config.frame_id
         response.plan.header.stamp = self.get_clock().now().to_msg()
+        outcome, reason, result = self._plan(request, response)
+        if outcome == REFUSED:
+            self._fail(f"plan refused: {reason}")
+        elif outcome == FAILED:
+            self._fail(f"plan failed: {reason}")
+        else:
+            self._last_error = ""  # a successful plan clears the error of an earlier one
+        timing = (result.planning_time_s, result.final_pos_err_m) if result is not None else (None, None)
+        stamp, waypoints = request.goal.header.stamp, len(response.plan.poses)
+        self.pub_plan_result.publish(plan_result_status(self.get_name(), outcome, reason, stamp, waypoints, *timing))
+        return response
+
+    def _plan(self, request: GetPlan.Request, response: GetPlan.Response) -> tuple[str, str, object]:
+        """(outcome, reason, PlanResult or None): SUCCESS fills `response`, publishes and starts the execution."""
         q = self._fresh_q()
         if q is None:
-            self._fail("plan refused: no fresh joint states")
-            return response
+            return REFUSED, "no fresh joint states", None
         try:
             target = pose_stamped_to_target(request.goal, expected_frame=self.config.frame_id)
-            tol = float(request.tolerance)
-            if not math.isfinite(tol) or tol < 0:
-                raise ValueError(f"tolerance must be a finite number >= 0, got {tol}")
-            pos_tol = tol if tol > 0 else self.config.pos_tol
+            pos_tol = plan_tolerance(request.tolerance, self.config.pos_tol)
             ori_tol = math.radians(self.config.ori_tol_deg)
             goal = Goal(target.position, target.rotation, pos_tol=pos_tol, ori_tol=ori_tol)
         except (AdapterError, ValueError) as err:
-            self._fail(f"plan refused: {err}")
-            return response
+            return REFUSED, str(err), None
         fused = self.fusion.fuse()
         if not fused.sources and self.config.require_cloud:
-            self._fail("plan refused: no point cloud received yet")
-            return response
+            return REFUSED, "no point cloud received yet", None
         if fused.stale:
             self._error(f"clouds left out as stale: {fused.describe()}")
         self._streamer = None  # a valid new request stops the execution of the previous plan
@@ -173,8 +188,7 @@ class OmplPlannerNode(Node):
             f"{len(result.q_path)} states, error {result.final_pos_err_m * 1000:.1f} mm"
         )
         if not result.success:
-            self._fail(f"plan failed: {result.reason}")
-            return response
+            return FAILED, result.reason, result
         stamp = response.plan.header.stamp
         frame = self.config.frame_id
         response.plan = ee_path_to_path(result.ee_positions, result.ee_quaternions, frame_id=frame, stamp=stamp)
@@ -184,7 +198,7 @@ class OmplPlannerNode(Node):
         if self.config.execute:
             self._streamer = TrajectoryStreamer(result.q_path, result.times, period=1.0 / self.config.command_rate_hz)
             self._state = "executing"
-        return response
+        return SUCCESS, result.reason, result
 
     def _fail(self, reason: str) -> None:
         self._state = "failed"

@@ -8,7 +8,9 @@ newest is left out and named on status; a cloud in another frame is refused with
 clouds above `cloud_max_points` are voxel-downsampled.
 Joint states that are malformed or far outside the joint limits are refused (the last good one goes stale and
 commands stop). Publishes joint_command (when enabled),
-~/trajectory, ~/markers, ~/status (with the last cloud's point counts). Services ~/plan (nav_msgs/GetPlan)
+~/trajectory, ~/markers, ~/status (with the last cloud's point counts) and, for every ~/plan request, its outcome on
+~/plan_result (diagnostic_msgs/DiagnosticStatus: OK on success, ERROR on a failure or refusal). Services ~/plan
+(nav_msgs/GetPlan; `tolerance`: 0 = the planner's pos_tol, a finite positive value [m], anything else refused)
 and ~/enable (std_srvs/SetBool).
 
 Cylinder obstacles (LSPP): CYLINDER markers on `obstacles` (visualization_msgs/MarkerArray, standing on the
@@ -29,7 +31,7 @@ import time
 from functools import partial
 
 import torch
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
@@ -62,10 +64,13 @@ from msg_adapters import (
     ee_path_to_path,
     joint_path_to_trajectory,
     joint_state_to_q,
+    plan_result_status,
+    plan_tolerance,
     pose_stamped_to_target,
     q_to_joint_state,
     status_array,
 )
+from msg_adapters.plan_request import FAILED, REFUSED, SUCCESS
 from sim_bridge.params import ConfigError, from_params, to_params
 
 
@@ -96,6 +101,7 @@ class PlannerNode(Node):
         self.pub_traj = self.create_publisher(JointTrajectory, "~/trajectory", 10)
         self.pub_markers = self.create_publisher(MarkerArray, "~/markers", 10)
         self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
+        self.pub_plan_result = self.create_publisher(DiagnosticStatus, "~/plan_result", 10)
         self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
         self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10)
         for cloud_topic in self.config.cloud_topics:
@@ -250,7 +256,7 @@ class PlannerNode(Node):
     def _goal_from(self, msg: PoseStamped, tolerance: float = 0.0) -> Goal:
         target = pose_stamped_to_target(msg)
         cfg = self.modes.active.planner.config
-        pos_tol = tolerance if tolerance > 0 else cfg.pos_tol
+        pos_tol = plan_tolerance(tolerance, cfg.pos_tol)
         return Goal(target.position, target.rotation, pos_tol=pos_tol, ori_tol=cfg.ori_tol)
 
     def _on_goal(self, msg: PoseStamped) -> None:
@@ -278,29 +284,40 @@ class PlannerNode(Node):
         return response
 
     def _on_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
+        """Plan once; every request, refused or planned, is answered on ~/plan_result as well."""
         response.plan = Path()
         response.plan.header.frame_id = "world"
         response.plan.header.stamp = self.get_clock().now().to_msg()
+        outcome, reason, result = self._plan(request, response)
+        if outcome == REFUSED:
+            self._error(f"plan refused: {reason}")
+        elif outcome == FAILED:
+            self._error(f"plan failed: {reason} (error {result.final_pos_err_m * 1000:.0f} mm)")
+        else:
+            self._last_error = ""  # a successful plan clears the error of an earlier one
+        timing = (result.planning_time_s, result.final_pos_err_m) if result is not None else (None, None)
+        stamp, waypoints = request.goal.header.stamp, len(response.plan.poses)
+        self.pub_plan_result.publish(plan_result_status(self.get_name(), outcome, reason, stamp, waypoints, *timing))
+        return response
+
+    def _plan(self, request: GetPlan.Request, response: GetPlan.Response) -> tuple[str, str, object]:
+        """(outcome, reason, PlanResult or None): SUCCESS fills `response` and publishes the trajectory."""
         controller = self.modes.active
         q = controller.fresh_joint_state(self._now())
         if q is None:
-            self._error("plan refused: no fresh joint states")
-            return response
+            return REFUSED, "no fresh joint states", None
         try:
             goal = self._goal_from(request.goal, float(request.tolerance))
         except (AdapterError, ValueError) as err:
-            self._error(f"plan refused: {err}")
-            return response
+            return REFUSED, str(err), None
         self._use_latest_cloud()
         ok, reason = self.modes.check_goal(goal)
         if not ok:
-            self._error(f"plan {reason}")
-            return response
+            return REFUSED, "goal " + reason.removeprefix("goal refused: "), None
         planner = controller.planner
         scene = controller.scene if planner.config.use_collision else None
         if planner.config.use_collision and scene is None:
-            self._error("plan refused: no scene received yet")
-            return response
+            return REFUSED, "no scene received yet", None
         t0 = time.perf_counter()
         result = planner.plan(q, goal, scene)
         self.get_logger().info(
@@ -309,13 +326,12 @@ class PlannerNode(Node):
             f"{len(result.q_path)} states, error {result.final_pos_err_m * 1000:.1f} mm"
         )
         if not result.success:
-            self._error(f"plan failed: {result.reason} (error {result.final_pos_err_m * 1000:.0f} mm)")
-            return response
+            return FAILED, result.reason, result
         stamp = response.plan.header.stamp
         response.plan = ee_path_to_path(result.ee_positions, result.ee_quaternions, frame_id="world", stamp=stamp)
         self.pub_traj.publish(joint_path_to_trajectory(result.q_path, result.times, stamp=stamp))
         self.pub_markers.publish(path_markers(result.ee_positions, goal.position, stamp))
-        return response
+        return SUCCESS, result.reason, result
 
     def _publish_status(self) -> None:
         o = self._last_outcome

@@ -22,7 +22,8 @@ PROBE = r"""
 import json, time
 import numpy as np
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
@@ -36,6 +37,7 @@ from msg_adapters import joint_state_to_q, target_to_pose_stamped
 rclpy.init()
 node = rclpy.create_node("ompl_probe")
 state = {"q": None, "violations": [], "commands": 0, "status": [], "traj_stamps": []}
+state.update(status_values=[], results=[])
 
 def on_joints(msg):
     state["q"] = joint_state_to_q(msg)[0]
@@ -51,10 +53,15 @@ def on_command(msg):
 def on_status(msg):
     for s in msg.status:
         state["status"].append(s.message + " " + " ".join(f"{kv.key}={kv.value}" for kv in s.values))
+        state["status_values"].append({kv.key: kv.value for kv in s.values})
+
+def on_result(msg):
+    state["results"].append([ord(msg.level), msg.name, msg.message, {kv.key: kv.value for kv in msg.values}])
 
 node.create_subscription(JointState, "joint_states", on_joints, 10)
 node.create_subscription(JointState, "joint_command", on_command, 10)
 node.create_subscription(DiagnosticArray, "ompl_planner/status", on_status, 10)
+node.create_subscription(DiagnosticStatus, "ompl_planner/plan_result", on_result, 10)
 node.create_subscription(JointTrajectory, "ompl_planner/trajectory", lambda m: state["traj_stamps"].append(
     (m.header.stamp.sec, m.header.stamp.nanosec)), 10)
 cloud_pub = node.create_publisher(PointCloud2, "camera/points", 10)
@@ -121,7 +128,24 @@ broken.header.frame_id = "world"
 broken.fields = [PointField(name="x", offset=0, datatype=PointField.FLOAT32, count=1)]
 cloud_pub.publish(broken)
 out["status_cloud"] = status_has("camera/points refused")
-out["still_plans"] = len(plan(goal, 0.01).poses) > 0
+
+def with_result(pose, tolerance=0.0):  # (waypoints returned, the request's plan_result or None)
+    n = len(state["results"])
+    length = len(plan(pose, tolerance).poses)
+    spin_until(lambda: len(state["results"]) > n, 5.0)
+    return length, state["results"][n] if len(state["results"]) > n else None
+
+# refused tolerances, then a successful plan clears last_error; every request answers on plan_result
+out["neg_tol_len"], out["neg_tol_result"] = with_result(goal, -0.01)
+out["nan_tol_len"], out["nan_tol_result"] = with_result(goal, float("nan"))
+spin_until(lambda: "tolerance" in state["status_values"][-1].get("last_error", ""), 5.0)
+out["last_error_before"] = state["status_values"][-1].get("last_error")
+stamped = target_to_pose_stamped(tf.translation, quat, stamp=Time(sec=7, nanosec=5))
+out["replan_len"], out["replan_result"] = with_result(stamped, 0.01)
+out["still_plans"] = out["replan_len"] > 0
+n = len(state["status_values"])
+spin_until(lambda: len(state["status_values"]) > n, 5.0)
+out["last_error_after"] = state["status_values"][-1].get("last_error") if len(state["status_values"]) > n else "-"
 
 # a bad parameter is refused with a reason
 params = node.create_client(SetParameters, "ompl_planner/set_parameters")
@@ -183,6 +207,23 @@ def _stop(procs: list[subprocess.Popen]) -> str:
     return "\n".join(logs)
 
 
+def _check_plan_results(out: dict, name: str) -> None:
+    """The plan_result (level, name, message, values) of the refused tolerances and of the successful plan."""
+    ERROR, OK = 2, 0
+    for key in ("neg_tol", "nan_tol"):
+        level, node, message, values = out[f"{key}_result"]
+        assert out[f"{key}_len"] == 0 and (level, node) == (ERROR, name), out
+        assert message.startswith("refused: tolerance must be 0") and values["success"] == "false", out
+        assert values["reason"] in message and values["waypoints"] == "0" and "planning_time_s" not in values, out
+    assert "tolerance must be 0" in out["last_error_before"], out
+    level, node, message, values = out["replan_result"]
+    assert out["replan_len"] > 1 and (level, node) == (OK, name), out
+    assert message.startswith("reached in ") and values["success"] == "true" and values["reason"] == "reached", out
+    assert values["request_stamp"] == "7.000000005" and int(values["waypoints"]) == out["replan_len"], out
+    assert float(values["planning_time_s"]) > 0 and float(values["final_pos_err_m"]) < 0.01, out
+    assert out["last_error_after"] == "", out
+
+
 @pytest.mark.ros
 @pytest.mark.slow
 def test_ompl_planner_node_plans_executes_and_refuses_bad_input():
@@ -208,4 +249,5 @@ def test_ompl_planner_node_plans_executes_and_refuses_bad_input():
     assert out["nan_plan_len"] == 0 and out["status_nan"], out
     assert out["far_plan_len"] == 0 and out["status_far"], out
     assert out["status_cloud"] and out["still_plans"] and out["param_refused"], out
+    _check_plan_results(out, "ompl_planner")
     assert planner.returncode == 0 and sim.returncode == 0, logs

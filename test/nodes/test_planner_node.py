@@ -19,7 +19,8 @@ PROBE = r"""
 import json, math, sys, time
 import numpy as np
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.srv import GetPlan
 from sensor_msgs.msg import JointState
@@ -30,7 +31,7 @@ from msg_adapters import joint_state_to_q, target_to_pose_stamped
 
 rclpy.init()
 node = rclpy.create_node("planner_probe")
-state = {"q": None, "violations": [], "commands": 0, "status": []}
+state = {"q": None, "violations": [], "commands": 0, "status": [], "status_values": [], "results": []}
 
 def on_joints(msg):
     state["q"] = joint_state_to_q(msg)[0]
@@ -46,10 +47,15 @@ def on_command(msg):
 def on_status(msg):
     for s in msg.status:
         state["status"].append(s.message + " " + " ".join(f"{kv.key}={kv.value}" for kv in s.values))
+        state["status_values"].append({kv.key: kv.value for kv in s.values})
+
+def on_result(msg):
+    state["results"].append([ord(msg.level), msg.name, msg.message, {kv.key: kv.value for kv in msg.values}])
 
 node.create_subscription(JointState, "joint_states", on_joints, 10)
 node.create_subscription(JointState, "joint_command", on_command, 10)
 node.create_subscription(DiagnosticArray, "planner/status", on_status, 10)
+node.create_subscription(DiagnosticStatus, "planner/plan_result", on_result, 10)
 goal_pub = node.create_publisher(PoseStamped, "goal_pose", 10)
 
 def spin_until(cond, timeout):
@@ -89,9 +95,30 @@ bad.pose.position.x = float("nan")
 goal_pub.publish(bad)
 out["status_nan"] = spin_until(lambda: any("goal_pose refused" in s for s in state["status"]), 5.0)
 far = target_to_pose_stamped(np.array([3.0, 0.0, 0.5]), quat)
-out["far_plan_len"] = len(plan(far).poses)
+
+def with_result(pose, tolerance=0.0):  # (waypoints returned, the request's plan_result or None)
+    n = len(state["results"])
+    length = len(plan(pose, tolerance).poses)
+    spin_until(lambda: len(state["results"]) > n, 5.0)
+    return length, state["results"][n] if len(state["results"]) > n else None
+
+out["far_plan_len"], out["far_result"] = with_result(far)
 spin_until(lambda: any("reach" in s for s in state["status"]), 5.0)
 out["status_far"] = any("beyond the reach" in s for s in state["status"])
+
+# refused tolerances, then a successful plan clears last_error; every request answers on plan_result
+out["neg_tol_len"], out["neg_tol_result"] = with_result(goal, -0.01)
+out["nan_tol_len"], out["nan_tol_result"] = with_result(goal, float("nan"))
+spin_until(lambda: "tolerance" in state["status_values"][-1].get("last_error", ""), 5.0)
+out["last_error_before"] = state["status_values"][-1].get("last_error")
+stamped = target_to_pose_stamped(tf.translation, quat, stamp=Time(sec=7, nanosec=5))
+for _ in range(3):  # the same goal planned before; a retry only if the optimisation is unlucky
+    out["replan_len"], out["replan_result"] = with_result(stamped)
+    if out["replan_len"]:
+        break
+n = len(state["status_values"])
+spin_until(lambda: len(state["status_values"]) > n, 5.0)
+out["last_error_after"] = state["status_values"][-1].get("last_error") if len(state["status_values"]) > n else "-"
 
 # closed loop: the arm reaches the goal through joint_command
 def tcp_err():
@@ -154,9 +181,29 @@ def test_planner_node_plans_reaches_and_refuses_bad_goals(backend):
     out = json.loads(line[len("RESULT ") :])
     assert out["plan_len"] > 1 and out["plan_end_err"] < 0.01, out
     assert out["far_plan_len"] == 0 and out["status_far"] and out["status_nan"], out
+    _check_plan_results(out, "planner")
+    level, _, message, values = out["far_result"]
+    assert level == 2 and message.startswith("refused: goal ") and "beyond the reach" in values["reason"], out
     assert out["closed_loop_reached"], (out, logs)
     assert out["commands"] > 0 and out["violations"] == [], out
     assert all(p.returncode == 0 for p in procs), logs
+
+
+def _check_plan_results(out: dict, name: str) -> None:
+    """The plan_result of each request in `out` (level, name, message, values)."""
+    ERROR, OK = 2, 0
+    for key in ("neg_tol", "nan_tol"):
+        level, node, message, values = out[f"{key}_result"]
+        assert out[f"{key}_len"] == 0 and (level, node) == (ERROR, name), out
+        assert message.startswith("refused: tolerance must be 0") and values["success"] == "false", out
+        assert values["reason"] in message and values["waypoints"] == "0" and "planning_time_s" not in values, out
+    assert "tolerance must be 0" in out["last_error_before"], out
+    level, node, message, values = out["replan_result"]
+    assert out["replan_len"] > 1 and (level, node) == (OK, name), out
+    assert message.startswith("reached in ") and values["success"] == "true" and values["reason"] == "reached", out
+    assert values["request_stamp"] == "7.000000005" and int(values["waypoints"]) == out["replan_len"], out
+    assert float(values["planning_time_s"]) > 0 and float(values["final_pos_err_m"]) < 0.01, out
+    assert out["last_error_after"] == "", out
 
 
 LSPP_PROBE = r"""
