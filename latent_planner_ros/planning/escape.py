@@ -25,10 +25,10 @@ import numpy as np
 import pinocchio as pin
 from ompl import base as ob
 from ompl import geometric as og
-from ompl import util as ou
 
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.ik import IkConfig, is_position_only, solve_ik
+from latent_planner_ros.planning.ompl_baseline import joint_space
 from latent_planner_ros.robot.limits import Q_MAX, Q_MIN
 from latent_planner_ros.robot.panda import PandaModel
 
@@ -141,16 +141,7 @@ class RrtEscape:
         self.free = free
         self.densify = densify
         self.range_rad = float(range_rad)
-        if ou.getLogLevel().value < ou.LOG_WARN.value:
-            ou.setLogLevel(ou.LOG_WARN)
-        self._space = ob.RealVectorStateSpace(7)
-        bounds = ob.RealVectorBounds(7)
-        for i in range(7):
-            bounds.setLow(i, float(Q_MIN[i]))
-            bounds.setHigh(i, float(Q_MAX[i]))
-        self._space.setBounds(bounds)
-        self._si = ob.SpaceInformation(self._space)
-        self._si.setStateValidityChecker(self._state_valid)
+        self._space, self._si = joint_space(self._state_valid)
         self._validator = _MotionValidator(self._si, self)  # kept alive here: OMPL holds only a pointer
         self._si.setMotionValidator(self._validator)
         self._si.setup()

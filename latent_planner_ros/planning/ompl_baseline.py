@@ -62,6 +62,22 @@ def densify(q_path: np.ndarray, step_rad: float) -> np.ndarray:
     return np.concatenate(out)
 
 
+def joint_space(state_valid) -> tuple[ob.RealVectorStateSpace, ob.SpaceInformation]:
+    """The Panda's 7-D joint space within its limits and its SpaceInformation, whose states are checked by
+    `state_valid(state) -> bool`; OMPL's log quietened to warnings."""
+    if ou.getLogLevel().value < ou.LOG_WARN.value:
+        ou.setLogLevel(ou.LOG_WARN)
+    space = ob.RealVectorStateSpace(7)
+    bounds = ob.RealVectorBounds(7)
+    for i in range(7):
+        bounds.setLow(i, float(Q_MIN[i]))
+        bounds.setHigh(i, float(Q_MAX[i]))
+    space.setBounds(bounds)
+    si = ob.SpaceInformation(space)
+    si.setStateValidityChecker(state_valid)
+    return space, si
+
+
 class OmplPlanner:
     """An OMPL planner behind the shared planner protocol (`name`, `plan(start_q, goal, cloud)`).
 
@@ -78,16 +94,7 @@ class OmplPlanner:
         self.panda = panda or load_panda()
         self.checker = OctreeChecker(table=self.config.table, padding=self.config.padding, panda=self.panda)
         self._rng = np.random.default_rng(self.config.seed)
-        if ou.getLogLevel().value < ou.LOG_WARN.value:
-            ou.setLogLevel(ou.LOG_WARN)
-        self._space = ob.RealVectorStateSpace(7)
-        bounds = ob.RealVectorBounds(7)
-        for i in range(7):
-            bounds.setLow(i, float(Q_MIN[i]))
-            bounds.setHigh(i, float(Q_MAX[i]))
-        self._space.setBounds(bounds)
-        self._si = ob.SpaceInformation(self._space)
-        self._si.setStateValidityChecker(self._state_valid)
+        self._space, self._si = joint_space(self._state_valid)
         step = math.radians(self.config.check_step_deg)
         self._si.setStateValidityCheckingResolution(step / self._space.getMaximumExtent())
         self._si.setup()
