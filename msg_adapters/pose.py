@@ -104,3 +104,29 @@ def target_to_pose_stamped(
     o = msg.pose.orientation
     o.x, o.y, o.z, o.w = (float(v) for v in quat)
     return msg
+
+
+def pose_stamped_in_base(msg: PoseStamped, frames) -> PoseTarget:
+    """A PoseTarget in the robot base frame from a PoseStamped in any frame `frames` accepts.
+
+    frames: a latent_planner_ros.perception.frames.Frames (`world` = empty frame_id, the base frame, the
+    configured sensor frames). The returned target's frame_id is frames.base_frame.
+
+    Raises:
+        AdapterError: what pose_stamped_to_target refuses, or a frame without a transform (naming the accepted).
+    """
+    from latent_planner_ros.perception.frames import FrameRefused
+    from latent_planner_ros.robot.rotations import matrix_to_quat, matrix_to_rot6d_np
+
+    target = pose_stamped_to_target(msg, expected_frame=None)
+    try:
+        position, rotation = frames.pose_to_base(target.frame_id, target.position, target.rotation)
+    except FrameRefused as err:
+        raise AdapterError(f"PoseStamped {err}") from None
+    return PoseTarget(
+        position=_read_only(position),
+        quaternion_xyzw=_read_only(matrix_to_quat(rotation)),
+        rotation=_read_only(rotation),
+        rot6d=_read_only(matrix_to_rot6d_np(rotation)),
+        frame_id=frames.base_frame,
+    )

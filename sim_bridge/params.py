@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Mapping
 from typing import Any, TypeVar
 
@@ -56,8 +57,23 @@ def from_params(cls: type[C], params: Mapping[str, Any], base: C | None = None, 
             kwargs[f.name] = current
     try:
         return cls(**kwargs)
-    except ConfigError as err:
-        raise ConfigError(f"{prefix}{err}") from None
+    except (ConfigError, ValueError, TypeError) as err:
+        raise ConfigError(qualify(str(err), prefix, [f.name for f in dataclasses.fields(cls)])) from None
+
+
+def qualify(message: str, prefix: str, names) -> str:
+    """`message` with every "; "-separated problem that starts with a field name given its full dotted name
+    (`rate_hz must be ...` -> `closed_loop.rate_hz must be ...`); problems naming no field keep their text."""
+    if not prefix:
+        return message
+    names = set(names)
+    parts = []
+    for part in message.split("; "):
+        head = re.match(r"(?:\w+\.)?(\w+)", part)  # a config may already say "ik.pos_tol"
+        if head and head.group(1) in names:
+            part = prefix + head.group(1) + part[head.end() :]
+        parts.append(part)
+    return "; ".join(parts)
 
 
 def check_number(name: str, value: Any, low: float | None = None, high: float | None = None, open_low=False) -> None:

@@ -1,9 +1,12 @@
-"""robot_info node: the robot model summary and the ready configuration, for a first look at the graph.
+"""robot_info node: the robot model as URDF and the ready configuration, for robot_state_publisher and RViz.
 
 Publishes:
-    robot_description (std_msgs/String, transient local): the text of `robot_summary()`, once;
-        late subscribers still receive it.
-    joint_states (sensor_msgs/JointState): Q_READY [rad] for panda_joint1..7 at 10 Hz.
+    robot_description (std_msgs/String, transient local): the Panda URDF XML (example-robot-data) with the
+        joint prefix applied to every link and joint name, once; late subscribers (robot_state_publisher,
+        RViz) still receive it.
+    joint_states (sensor_msgs/JointState): Q_READY [rad] for <prefix>joint1..7 at 10 Hz.
+
+Parameters: `joint_prefix` (default `panda_`; e.g. `fr3_`), fixed at start-up.
 
 Usage:
     python -m latent_planner_ros run robot_info [--once [--wait S]] [--ros-args ... [--]]
@@ -20,6 +23,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import dataclass
 
 import rclpy
 from rclpy.duration import Duration
@@ -31,9 +35,11 @@ from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
+from latent_planner_ros.nodes.frames_config import FramesConfig
 from latent_planner_ros.robot.limits import Q_READY
-from latent_planner_ros.robot.summary import robot_summary
+from latent_planner_ros.robot.urdf import panda_urdf
 from msg_adapters import q_to_joint_state
+from sim_bridge.ros_params import ConfigParams
 
 RATE_HZ = 10.0
 """joint_states publishing rate [Hz]."""
@@ -44,19 +50,32 @@ ONCE_WAIT_S = 2.0
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
 
 
-class RobotInfoNode(Node):
-    """Publishes `description` once (latched) on robot_description and Q_READY on joint_states."""
+@dataclass
+class RobotInfoConfig:
+    joint_prefix: str = "panda_"
+    """prefix of the link and joint names in the URDF and joint_states (`<prefix>joint1`, `<prefix>link0`)"""
 
-    def __init__(self, description: str):
+    def __post_init__(self) -> None:
+        FramesConfig(joint_prefix=self.joint_prefix)  # the same rule as the planners' frames.joint_prefix
+
+
+class RobotInfoNode(Node):
+    """Publishes the URDF once (latched) on robot_description and Q_READY on joint_states."""
+
+    def __init__(self):
         super().__init__("robot_info")
+        params = ConfigParams(self, RobotInfoConfig, read_only=("joint_prefix",))
+        self.config = params.config
+        self.joint_names = FramesConfig(joint_prefix=self.config.joint_prefix).joint_names
         self.description_pub = self.create_publisher(String, "robot_description", LATCHED)
         self.joint_state_pub = self.create_publisher(JointState, "joint_states", 10)
-        self.description_pub.publish(String(data=description))
+        self.description_pub.publish(String(data=panda_urdf(self.config.joint_prefix)))
         self.publish_joint_state()
         self.timer = self.create_timer(1.0 / RATE_HZ, self.publish_joint_state)
 
     def publish_joint_state(self) -> None:
-        self.joint_state_pub.publish(q_to_joint_state(Q_READY, stamp=self.get_clock().now().to_msg()))
+        stamp = self.get_clock().now().to_msg()
+        self.joint_state_pub.publish(q_to_joint_state(Q_READY, names=self.joint_names, stamp=stamp))
 
     def has_subscribers(self) -> bool:
         return self.description_pub.get_subscription_count() > 0 and self.joint_state_pub.get_subscription_count() > 0
@@ -113,9 +132,8 @@ def main() -> int:
     args = _parse_args(sys.argv)
     node = None
     try:
-        description = robot_summary()
         rclpy.init(args=sys.argv)
-        node = RobotInfoNode(description)
+        node = RobotInfoNode()
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         node.get_logger().info(
@@ -128,6 +146,9 @@ def main() -> int:
             executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except ValueError as err:  # a refused parameter (ConfigError)
+        print(f"robot_info: cannot start: {err}", file=sys.stderr)
+        return 2
     finally:
         if node is not None:
             node.destroy_node()

@@ -1,10 +1,13 @@
-"""Fusing the clouds of several depth cameras into one cloud in `world`, with one camera origin per point. No ROS.
+"""Fusing the clouds of several depth cameras into one cloud in the robot base frame, with one camera origin per
+point. No ROS.
 
-Each camera publishes its own cloud topic (sensor_msgs/PointCloud2 in `world`) and, beside it, a pose topic with
-its optical centre (`<ns>/points` and `<ns>/pose`, as the sim does; :func:`pose_topic_of`). A node keeps a
-:class:`CloudFusion` over its configured cloud topics: it holds the newest accepted cloud of each topic and the
-newest origin of each camera, refuses clouds from topics it was not configured with and clouds in another frame
-(with a reason for the node's status), and :meth:`CloudFusion.fuse` concatenates the clouds that are not stale:
+Each camera publishes its own cloud topic (sensor_msgs/PointCloud2, normally in `world`) and, beside it, a pose
+topic with its optical centre (`<ns>/points` and `<ns>/pose`, as the sim does; :func:`pose_topic_of`). A node keeps
+a :class:`CloudFusion` over its configured cloud topics: it holds the newest accepted cloud of each topic and the
+newest origin of each camera, moved into the base frame (perception/frames.py: `world`, the base frame and
+configured sensor frames are accepted), refuses clouds from topics it was not configured with and clouds in any
+other frame (with the same reason in every node, for its status), and :meth:`CloudFusion.fuse` concatenates the
+clouds that are not stale:
 a topic's cloud stamped more than `max_age_s` away from the reference stamp (the newest cloud's) is left out and
 named. Each point carries the origin of its camera (NaN when the camera's pose is unknown or too far in time).
 """
@@ -17,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from latent_planner_ros.perception.camera_origin import CameraOrigin
+from latent_planner_ros.perception.frames import FrameRefused, Frames
 
 POSE_NAME = "pose"
 """Last token of a camera's pose topic, beside its cloud topic (`camera/points` -> `camera/pose`)."""
@@ -38,8 +42,9 @@ class FusedCloud:
     """The fused scene.
 
     Attributes:
-        points: (N, 3) float32 [m] in `world`, the clouds of `sources` one after another (finite points only).
-        origins: (N, 3) float64 [m] in `world`: the optical centre of the camera that saw each point; NaN rows
+        points: (N, 3) float32 [m] in the fusion frame (the robot base frame), the clouds of `sources` one after
+            another (finite points only).
+        origins: (N, 3) float64 [m] in the fusion frame: the optical centre of the camera that saw each point; NaN rows
             where that camera's origin is unknown.
         stamp_s: [s] stamp of the newest cloud used (0 when none).
         sources: the topics whose clouds were used, in configuration order.
@@ -90,7 +95,8 @@ class CloudFusion:
 
     Args:
         topics: the cloud topics (names as configured, one per camera; at least one, no repeats).
-        frame_id: the only frame clouds and poses are accepted in.
+        frames: the accepted frames (clouds and poses are moved into frames.base_frame); a string names the only
+            frame accepted, with no transform.
         max_age_s: [s] a topic's cloud stamped further than this from the reference stamp is left out (stale);
             0 = never.
         origin_max_age_s: [s] a camera pose stamped further than this from its cloud's stamp is not used with it
@@ -100,14 +106,16 @@ class CloudFusion:
         ValueError: no topics, or a topic listed twice.
     """
 
-    def __init__(self, topics: Sequence[str], frame_id: str = "world", max_age_s: float = 0.5, origin_max_age_s=1.0):
+    def __init__(self, topics: Sequence[str], frames: Frames | str = "world", max_age_s=0.5, origin_max_age_s=1.0):
         topics = tuple(topics)
         if not topics:
             raise ValueError("cloud topics: at least one is needed")
         if len(set(topics)) != len(topics):
             raise ValueError(f"cloud topics: {list(topics)} lists a topic twice")
         self.topics = topics
-        self.frame_id = frame_id
+        self.frames = Frames(frames) if isinstance(frames, str) else frames
+        self.frame_id = self.frames.base_frame
+        """the frame of the fused cloud"""
         self.max_age_s = float(max_age_s)
         self._clouds: dict[str, _Held] = {}
         self._origins = {t: CameraOrigin(origin_max_age_s, pose_topic_of(t)) for t in topics}
@@ -123,16 +131,22 @@ class CloudFusion:
             origin.max_age_s = float(seconds)
 
     def check(self, topic: str, frame_id: str) -> None:
-        """CloudRefused unless topic is configured and frame_id is the fusion frame (call before converting)."""
+        """CloudRefused unless topic is configured and frame_id is an accepted frame (call before converting)."""
         if topic not in self._origins:
             raise CloudRefused(f"{topic} refused: not a configured cloud topic (configured: {list(self.topics)})")
-        if frame_id != self.frame_id:
-            raise CloudRefused(f"{topic} refused: frame {frame_id!r}, expected {self.frame_id!r}")
+        self._to_base(topic, frame_id)
+
+    def _to_base(self, topic: str, frame_id: str):
+        try:
+            return self.frames.to_base(frame_id)
+        except FrameRefused as err:
+            raise CloudRefused(f"{topic} refused: {err}") from None
 
     def add_cloud(
         self, topic: str, points: np.ndarray, frame_id: str, stamp_s: float, points_in: int | None = None
     ) -> None:
-        """Keep points (N, 3) [m] (NaN/inf rows are dropped) as the newest cloud of topic, stamped stamp_s [s];
+        """Keep points (N, 3) [m] in frame_id (NaN/inf rows are dropped), moved into the fusion frame, as the newest
+        cloud of topic, stamped stamp_s [s];
         points_in: the points the message held, when non-finite ones were dropped upstream (default N).
 
         Raises:
@@ -144,7 +158,7 @@ class CloudFusion:
         if pts.ndim != 2 or pts.shape[1] != 3:
             raise CloudRefused(f"{topic} refused: expected points of shape (N, 3), got {pts.shape}")
         self.received[topic] = len(pts) if points_in is None else max(int(points_in), len(pts))
-        pts = pts[np.all(np.isfinite(pts), axis=1)]
+        pts = self._to_base(topic, frame_id).points(pts[np.all(np.isfinite(pts), axis=1)])
         self._clouds[topic] = _Held(pts, float(stamp_s))
         self._round.add(topic)
         self.newest = topic
@@ -158,11 +172,11 @@ class CloudFusion:
         pose_topic = pose_topic_of(topic)
         if topic not in self._origins:
             raise CloudRefused(f"{pose_topic} refused: not the pose of a configured cloud topic")
-        if frame_id != self.frame_id:
-            raise CloudRefused(f"{pose_topic} refused: frame {frame_id!r}, expected {self.frame_id!r}")
+        to_base = self._to_base(pose_topic, frame_id)
         p = np.asarray(position, dtype=np.float64).reshape(-1)
         if p.shape != (3,) or not np.all(np.isfinite(p)):
             raise CloudRefused(f"{pose_topic} refused: position {p.tolist()} is not 3 finite numbers")
+        p = to_base.points(p[None])[0]
         self._origins[topic].on_pose(p, stamp_s)
 
     def round_complete(self) -> bool:

@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+import xml.etree.ElementTree as ET
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -22,7 +23,6 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
 from latent_planner_ros.robot.limits import JOINT_NAMES, Q_READY
-from latent_planner_ros.robot.summary import robot_summary
 from msg_adapters import joint_state_to_q
 
 REPO = Path(__file__).resolve().parents[2]
@@ -106,10 +106,20 @@ def finish(proc: subprocess.Popen, sig: int | None = None, timeout_s: float = TI
     return proc.returncode, out + err
 
 
-def assert_ready_pose(msg: JointState) -> None:
-    assert list(msg.name) == list(JOINT_NAMES)
-    q, _ = joint_state_to_q(msg)
+def assert_ready_pose(msg: JointState, names=JOINT_NAMES) -> None:
+    assert list(msg.name) == list(names)
+    q, _ = joint_state_to_q(msg, names)
     np.testing.assert_array_equal(q, Q_READY)
+
+
+def assert_panda_urdf(xml: str, prefix: str = "panda_") -> None:
+    """robot_description is the URDF: a <robot> with 7 revolute arm joints named <prefix>joint1..7."""
+    root = ET.fromstring(xml)
+    assert root.tag == "robot"
+    joints = {j.get("name"): j.get("type") for j in root.iter("joint")}
+    assert all(joints[f"{prefix}joint{i}"] == "revolute" for i in range(1, 8)), joints
+    assert f"{prefix}link0" in {link.get("name") for link in root.iter("link")}
+    assert {p.get("link") for p in root.iter("parent")} <= {link.get("name") for link in root.iter("link")}
 
 
 def test_once_publishes_description_and_ready_pose(domain_id, probe):
@@ -124,8 +134,22 @@ def test_once_publishes_description_and_ready_pose(domain_id, probe):
     assert received, f"nothing received on domain {domain_id}; node output:\n{output}"
     assert code == 0, output
     assert "Traceback" not in output
-    assert probe.descriptions[0].data == robot_summary()
+    assert_panda_urdf(probe.descriptions[0].data)
     assert_ready_pose(probe.joint_states[0])
+
+
+def test_joint_prefix_renames_the_urdf_and_the_joint_states(domain_id, probe):
+    probe.subscribe_description()
+    probe.subscribe_joint_states()
+    proc = start_robot_info(domain_id, "--once", "--wait", "15", "--ros-args", "-p", "joint_prefix:=fr3_")
+    try:
+        received = probe.spin_until(lambda: bool(probe.descriptions and probe.joint_states))
+    finally:
+        code, output = finish(proc)
+    assert received and code == 0, output
+    assert_panda_urdf(probe.descriptions[0].data, "fr3_")
+    assert "panda_" not in probe.descriptions[0].data.replace("panda_description", "")
+    assert_ready_pose(probe.joint_states[0], tuple(f"fr3_joint{i}" for i in range(1, 8)))
 
 
 def test_spins_at_10hz_latches_description_and_stops_on_ctrl_c(domain_id, probe):
