@@ -16,6 +16,12 @@ Q_MAX = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
 V_MAX = np.array([2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61])
 """Joint velocity limits [rad/s], shape (7,)."""
 
+A_MAX = np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
+"""Joint acceleration limits [rad/s^2], shape (7,) (Franka Panda datasheet)."""
+
+J_MAX = np.array([7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0, 10000.0])
+"""Joint jerk limits [rad/s^3], shape (7,) (Franka Panda datasheet)."""
+
 Q_READY = np.array([0.0, -0.785398, 0.0, -2.35619, 0.0, 1.5707, 0.785398])
 """The SRDF 'default' (ready) configuration [rad], shape (7,)."""
 
