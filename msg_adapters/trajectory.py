@@ -23,6 +23,7 @@ def joint_path_to_trajectory(
     names: Sequence[str] = JOINT_NAMES,
     stamp: Time | None = None,
     velocities: np.ndarray | None = None,
+    accelerations: np.ndarray | None = None,
 ) -> JointTrajectory:
     """A JointTrajectory with one point per row of q_path.
 
@@ -32,6 +33,8 @@ def joint_path_to_trajectory(
         names: joint names, default panda_joint1..7.
         stamp: header stamp (builtin_interfaces/Time; zero when None). The frame_id is left empty.
         velocities: optional shape (T, J) joint velocities [rad/s].
+        accelerations: optional shape (T, J) joint accelerations [rad/s^2] (with velocities, as a
+            JointTrajectoryController expects for its quintic interpolation).
 
     Raises:
         AdapterError: wrong shapes, NaN/inf values, negative or decreasing times, duplicate names.
@@ -47,6 +50,7 @@ def joint_path_to_trajectory(
         i = int(np.argmax(np.diff(t) < 0))
         raise AdapterError(f"times_s must be nondecreasing: t[{i}] = {t[i]} > t[{i + 1}] = {t[i + 1]}")
     dq = None if velocities is None else as_float_array(velocities, q.shape, "velocities")
+    ddq = None if accelerations is None else as_float_array(accelerations, q.shape, "accelerations")
 
     msg = JointTrajectory()
     msg.header.stamp = stamp_or_zero(stamp)
@@ -56,6 +60,8 @@ def joint_path_to_trajectory(
         point = JointTrajectoryPoint(positions=q[i].tolist(), time_from_start=seconds_to_duration(t[i]))
         if dq is not None:
             point.velocities = dq[i].tolist()
+        if ddq is not None:
+            point.accelerations = ddq[i].tolist()
         points.append(point)
     msg.points = points
     return msg
@@ -88,6 +94,48 @@ def trajectory_to_arrays(msg: JointTrajectory, names: Sequence[str] = JOINT_NAME
         q[i] = np.asarray(point.positions, dtype=np.float64)[cols]
         t[i] = duration_to_seconds(point.time_from_start)
     return q, t
+
+
+def trajectory_to_execution(
+    msg: JointTrajectory, names: Sequence[str] = JOINT_NAMES
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """A JointTrajectory to execute, validated as a JointTrajectoryController would, columns reordered to `names`.
+
+    Returns:
+        times: (K,) time from start [s], >= 0 and strictly increasing, K >= 1.
+        positions: (K, J) [rad]; velocities, accelerations: (K, J) [rad/s], [rad/s^2], or None when no point
+            carries them.
+
+    Raises:
+        AdapterError: no points; joint names duplicated, missing or unknown; a point whose positions, velocities or
+            accelerations do not match joint_names (velocities and accelerations: all points or none); NaN/inf;
+            negative or non-increasing times.
+    """
+    msg_names = list(msg.joint_names)
+    unknown = [n for n in msg_names if n not in names]
+    if unknown:
+        raise AdapterError(f"JointTrajectory has unknown joints {unknown} (expected {list(names)})")
+    q, t = trajectory_to_arrays(msg, names)
+    if len(t) == 0:
+        raise AdapterError("JointTrajectory has no points")
+    if not np.all(np.isfinite(q)) or not np.all(np.isfinite(t)):
+        raise AdapterError("JointTrajectory has NaN or inf positions or times")
+    if t[0] < 0 or np.any(np.diff(t) <= 0):
+        raise AdapterError(f"JointTrajectory time_from_start must be >= 0 and strictly increasing, got {t.tolist()}")
+    cols = [msg_names.index(n) for n in names]
+    derivatives = []
+    for field in ("velocities", "accelerations"):
+        lengths = {len(getattr(p, field)) for p in msg.points}
+        if lengths == {0}:
+            derivatives.append(None)
+            continue
+        if lengths != {len(msg_names)}:
+            raise AdapterError(f"JointTrajectory {field}: every point needs {len(msg_names)} values or none")
+        values = np.array([np.asarray(getattr(p, field), dtype=np.float64)[cols] for p in msg.points])
+        if not np.all(np.isfinite(values)):
+            raise AdapterError(f"JointTrajectory {field} contain NaN or inf")
+        derivatives.append(values)
+    return t, q, derivatives[0], derivatives[1]
 
 
 def ee_path_to_path(
