@@ -1,0 +1,99 @@
+"""A JointTrajectoryController-like follower for the sim's PD control. No ROS.
+
+Like ros2_controllers' JointTrajectoryController: a trajectory's times are relative to its start stamp (stamp 0 =
+when it is received); it replaces the current one at that start time, from the state being commanded then (that
+state is the first knot, so the command stays continuous); points already in the past at that time are dropped
+and a trajectory that has ended before it starts is refused. Between points it interpolates the way a JTC does:
+linearly with positions only, cubic with velocities, quintic with accelerations (scipy BPoly.from_derivatives).
+After the last point it holds that position at zero velocity.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.interpolate import BPoly
+
+
+class TrajectoryFollower:
+    """Position and velocity targets (7,) [rad], [rad/s] at any sim time from the latest trajectory.
+
+    Args:
+        q0: (7,) [rad] position held until the first trajectory starts.
+    """
+
+    def __init__(self, q0: np.ndarray):
+        self._hold = np.asarray(q0, dtype=float).copy()
+        self._active: tuple[float, list[BPoly]] | None = None  # (start time [s], per-joint splines)
+        self._last_time = -np.inf  # of the last sample [s]
+        self._pending: tuple[float, np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None] | None = None
+
+    def set_trajectory(
+        self,
+        times: np.ndarray,
+        positions: np.ndarray,
+        velocities: np.ndarray | None = None,
+        accelerations: np.ndarray | None = None,
+        stamp: float = 0.0,
+        now: float = 0.0,
+    ) -> str:
+        """Queue a trajectory; returns '' when accepted, else why it was refused (the current one continues).
+
+        Args:
+            times: (K,) time from start [s], >= 0, strictly increasing.
+            positions: (K, 7) [rad]; velocities (K, 7) [rad/s], accelerations (K, 7) [rad/s^2] or None.
+            stamp: start time [s] in sim time; 0 means now.
+            now: current sim time [s].
+        """
+        t = np.asarray(times, dtype=float)
+        q = np.asarray(positions, dtype=float)
+        if t.ndim != 1 or len(t) == 0 or q.shape != (len(t), 7):
+            return f"expected times (K,) and positions (K, 7), got {t.shape}, {q.shape}"
+        if t[0] < 0 or np.any(np.diff(t) <= 0) or not np.all(np.isfinite(t)) or not np.all(np.isfinite(q)):
+            return "times must be finite, >= 0 and strictly increasing; positions finite"
+        derivs = [None if d is None else np.asarray(d, dtype=float) for d in (velocities, accelerations)]
+        if any(d is not None and (d.shape != q.shape or not np.all(np.isfinite(d))) for d in derivs):
+            return f"velocities and accelerations must be finite ({len(t)}, 7) arrays"
+        start = now if stamp == 0 else float(stamp)
+        if start + t[-1] < now:
+            return f"trajectory ended {now - start - t[-1]:.3f} s ago"
+        self._pending = (start, t, q, derivs[0], derivs[1])
+        return ""
+
+    def sample(self, time: float) -> tuple[np.ndarray, np.ndarray]:
+        """Position (7,) [rad] and velocity (7,) [rad/s] targets at sim time [s] (non-decreasing between calls)."""
+        if self._pending is not None and time >= self._pending[0]:
+            self._activate(max(self._pending[0], self._last_time))
+        self._last_time = time
+        if self._active is None:
+            return self._hold.copy(), np.zeros(7)
+        start, splines = self._active
+        end = splines[0].x[-1]
+        if time >= end:
+            return np.array([s(end) for s in splines]), np.zeros(7)
+        return np.array([s(time) for s in splines]), np.array([s(time, 1) for s in splines])
+
+    def _activate(self, time: float) -> None:
+        start, t, q, dq, ddq = self._pending
+        self._pending = None
+        q_now, dq_now = self.sample(time)
+        ddq_now = self.acceleration(time)
+        keep = start + t > time  # points still ahead
+        abs_t = np.concatenate([[time], start + t[keep]])
+        orders = [q_now[None], q[keep]]
+        if dq is not None:
+            orders = [np.stack([q_now, dq_now, ddq_now])[None] if ddq is not None else np.stack([q_now, dq_now])[None]]
+            rows = [q[keep], dq[keep]] + ([ddq[keep]] if ddq is not None else [])
+            knots = np.concatenate([orders[0], np.stack(rows, axis=1)])  # (K', n_derivatives, 7)
+        else:
+            knots = np.concatenate(orders)[:, None, :]
+        if len(abs_t) == 1:  # the last point is exactly now
+            abs_t, knots = np.array([time, time + 1e-9]), np.stack([knots[0], knots[0]])
+        splines = [BPoly.from_derivatives(abs_t, knots[:, :, j]) for j in range(7)]
+        self._active = (start, splines)
+        self._hold = np.array([s(abs_t[-1]) for s in splines])
+
+    def acceleration(self, time: float) -> np.ndarray:
+        """Acceleration target (7,) [rad/s^2] of the active trajectory at sim time [s] (zero when holding)."""
+        if self._active is None or time >= self._active[1][0].x[-1]:
+            return np.zeros(7)
+        return np.array([s(time, 2) for s in self._active[1]])

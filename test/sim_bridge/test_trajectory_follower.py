@@ -1,0 +1,67 @@
+"""TrajectoryFollower: JTC-like start stamps, replacement from the commanded state, interpolation, hold."""
+
+import numpy as np
+import pytest
+
+from latent_planner_ros.planning.motion_limits import MotionLimits
+from latent_planner_ros.planning.trajectory_segment import segment_to_target
+from latent_planner_ros.robot.limits import Q_READY
+from sim_bridge.trajectory_follower import TrajectoryFollower
+
+
+def test_holds_before_the_first_trajectory_and_after_the_end():
+    f = TrajectoryFollower(Q_READY)
+    np.testing.assert_array_equal(f.sample(3.0)[0], Q_READY)
+    assert f.set_trajectory([1.0], [Q_READY + 0.2], now=3.0) == ""
+    q, dq = f.sample(3.5)
+    np.testing.assert_allclose(q, Q_READY + 0.1)  # linear from the commanded state to the only point
+    np.testing.assert_allclose(dq, 0.2)
+    q, dq = f.sample(10.0)
+    np.testing.assert_allclose(q, Q_READY + 0.2) and np.testing.assert_array_equal(dq, 0)
+
+
+def test_a_future_stamp_replaces_the_current_trajectory_only_at_its_start():
+    f = TrajectoryFollower(Q_READY)
+    f.set_trajectory([0.0, 2.0], [Q_READY, Q_READY + 1.0], now=0.0)
+    f.sample(0.0)  # the sim steps: the first trajectory starts
+    assert f.set_trajectory([0.5], [Q_READY], stamp=1.0, now=0.2) == ""
+    np.testing.assert_allclose(f.sample(0.9)[0], Q_READY + 0.45)  # still the first one
+    np.testing.assert_allclose(f.sample(1.0)[0], Q_READY + 0.5)
+    np.testing.assert_allclose(f.sample(1.25)[0], Q_READY + 0.25)  # from the commanded state to the new point
+    np.testing.assert_allclose(f.sample(1.5)[0], Q_READY)
+
+
+def test_segments_replacing_each_other_give_a_continuous_velocity():
+    limits = MotionLimits()
+    f = TrajectoryFollower(Q_READY)
+    dt, period, now = 0.002, 0.1, 0.0
+    q, dq, ddq = Q_READY, np.zeros(7), np.zeros(7)
+    samples = []
+    for k in range(20):
+        seg = segment_to_target(q, dq, ddq, Q_READY + 0.05 * (k + 1), limits, min_duration=2 * period, dt=0.01)
+        assert f.set_trajectory(seg.times, seg.positions, seg.velocities, seg.accelerations, now=now) == ""
+        for t in np.arange(now, now + period - 1e-9, dt):
+            samples.append(f.sample(t))
+        now += period
+        q, dq = f.sample(now)
+        ddq = f.acceleration(now)
+    velocity = np.array([s[1] for s in samples])
+    assert np.abs(np.diff(velocity, axis=0)).max() <= limits.a_max.max() * dt * 1.5
+    assert np.all(np.abs(velocity) <= limits.v_max * 1.05)
+    assert np.linalg.norm(velocity[len(velocity) // 2]) > 0.1
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"times": [0.2, 0.1], "positions": np.zeros((2, 7))}, "strictly increasing"),
+        ({"times": [0.1], "positions": np.full((1, 7), np.nan)}, "finite"),
+        ({"times": [0.1], "positions": np.zeros((1, 6))}, "positions"),
+        ({"times": [0.1], "positions": np.zeros((1, 7)), "velocities": np.zeros((2, 7))}, "velocities"),
+        ({"times": [0.1], "positions": np.zeros((1, 7)), "stamp": 1.0, "now": 5.0}, "ended"),
+    ],
+)
+def test_bad_trajectories_are_refused_and_the_current_one_continues(kwargs, match):
+    f = TrajectoryFollower(Q_READY)
+    assert match in f.set_trajectory(**kwargs)
+    np.testing.assert_array_equal(f.sample(6.0)[0], Q_READY)
