@@ -27,7 +27,7 @@ from pathlib import Path
 
 import rclpy
 from geometry_msgs.msg import PoseStamped
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.logging import get_logger
 from rclpy.node import Node
@@ -43,13 +43,16 @@ from msg_adapters import AdapterError, joint_state_to_q, q_to_joint_state, targe
 from sim_bridge.camera_config import CameraConfig
 from sim_bridge.camera_rig import DEFAULT_CAMERA, camera_from_params, camera_params
 from sim_bridge.mjcf import DEPTH_CAMERA, OVERVIEW_CAMERA
-from sim_bridge.params import ConfigError, from_params, to_params
+from sim_bridge.param_specs import param_specs
+from sim_bridge.params import ConfigError, from_params
 from sim_bridge.render import Recorder, Snapshotter
+from sim_bridge.ros_params import ConfigParams, descriptor
 from sim_bridge.runner import Runner, Tick
 from sim_bridge.scenario import Scenario, ScenarioError
 from sim_bridge.scenario_files import load_scenario, parse_overrides
 from sim_bridge.sim import Sim
 from sim_bridge.sim_config import SimConfig
+from sim_bridge.sim_ranges import SIM_RANGES, SIM_READ_ONLY
 
 
 def _stamp(seconds: float):
@@ -70,24 +73,26 @@ class SimNode(Node):
 
     def __init__(self, frame_rate: float = 0.0, **kwargs):
         super().__init__("sim", **kwargs)
-        self._param_names = to_params(SimConfig())
-        for name, value in self._param_names.items():
-            self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
-        self.config = from_params(SimConfig, {n: self.get_parameter(n).value for n in self._param_names})
+        params = ConfigParams(self, SimConfig, ranges=SIM_RANGES, read_only=SIM_READ_ONLY)
+        self._param_names = params.names
+        self.config = params.config
         self._camera_params: dict[str, str] = {}  # <name>.<field> -> camera name, of the listed cameras but `camera`
         self.named_cameras: dict[str, CameraConfig] = {}
         for camera in self.config.cameras:
             if camera == DEFAULT_CAMERA:
                 continue
             defaults = camera_params(camera, self.config.camera)
+            specs = param_specs(self.config.camera, SIM_RANGES)  # camera.<field>: the same types and ranges
             for name, value in defaults.items():
-                self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
+                spec = specs[name.split(".", 1)[1]]
+                self.declare_parameter(name, value, descriptor(spec))
                 self._camera_params[name] = camera
             values = {n: self.get_parameter(n).value for n in defaults}
             self.named_cameras[camera] = camera_from_params(camera, values, self.config.camera)
         self.sim = Sim(scenario_of(self.config), self.config, self.named_cameras)
         self.runner = Runner(self.sim, frame_rate=frame_rate)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
+        params.on_set(self._on_set_parameters)
+        self.add_on_set_parameters_callback(self._on_set_camera_parameters)
 
         self._pub_joints = self.create_publisher(JointState, "joint_states", 10)
         self._pub_clock = self.create_publisher(Clock, "/clock", 10)
@@ -121,23 +126,29 @@ class SimNode(Node):
         return self._pub_cameras[camera]
 
     # ------------------------------------------------------------------ callbacks
-    def _on_set_parameters(self, params) -> SetParametersResult:
-        ours = {p.name: p.value for p in params if p.name in self._param_names}  # not use_sim_time etc.
-        per_camera = {p.name: p.value for p in params if p.name in self._camera_params}
-        named = dict(self.named_cameras)
+    def _on_set_parameters(self, ours: dict) -> SetParametersResult:
+        """Apply {dotted name: value} of SimConfig parameters (`cameras` is read-only)."""
         try:
             config = from_params(SimConfig, ours, base=self.config)
-            if tuple(config.cameras) != tuple(self.config.cameras):
-                raise ConfigError("cameras: the camera list is fixed at start-up (restart the node to change it)")
             if {"scenario", "scenario_overrides"} & set(ours):
                 scenario_of(config)  # refuse a scenario that would not load
-            for camera in {self._camera_params[n] for n in per_camera}:
-                named[camera] = camera_from_params(camera, per_camera, named[camera])
         except (ConfigError, ScenarioError) as err:
             return SetParametersResult(successful=False, reason=str(err))
         if config.real_time_factor != self.config.real_time_factor:
             self.runner.set_real_time_factor(config.real_time_factor)
-        self.config, self.named_cameras = config, named
+        self.config = config
+        return SetParametersResult(successful=True)
+
+    def _on_set_camera_parameters(self, params) -> SetParametersResult:
+        """Apply the `<camera>.*` parameters of the named cameras (at the next reset)."""
+        per_camera = {p.name: p.value for p in params if p.name in self._camera_params}
+        named = dict(self.named_cameras)
+        try:
+            for camera in {self._camera_params[n] for n in per_camera}:
+                named[camera] = camera_from_params(camera, per_camera, named[camera])
+        except ConfigError as err:
+            return SetParametersResult(successful=False, reason=str(err))
+        self.named_cameras = named
         return SetParametersResult(successful=True)
 
     def _on_command(self, msg: JointState) -> None:

@@ -1,16 +1,19 @@
 """ompl_planner node: the OMPL baseline behind the planner node's GetPlan contract, with optional execution.
 
-Subscribes joint_states and each topic of `cloud_topics` (default camera/points): the topics' newest clouds are
-fused in `frame_id` at each plan (perception/cloud_fusion.py: one stamped more than `cloud_max_age_s` from the
-newest is left out and named on status; a cloud in another frame is refused with the topic and reason).
-Service ~/plan (nav_msgs/GetPlan): `goal` = TCP target pose,
+Subscribes joint_states (`<frames.joint_prefix>joint1..7`) and each topic of `cloud_topics` (default camera/points):
+the topics' newest clouds are fused in the robot base frame at each plan (perception/cloud_fusion.py: one stamped
+more than `cloud_max_age_s` from the newest is left out and named on status; clouds in `world`, the base frame or a
+frame of `frames.extrinsics` are transformed, any other frame is refused with the topic and reason).
+Service ~/plan (nav_msgs/GetPlan): `goal` = TCP target pose (in `world`, the base frame or an extrinsic frame),
 `start` ignored (the current joint state is the start), `tolerance` = position tolerance [m] (0: the
 configured one; NaN, inf or negative: refused); the response is the end-effector path, empty on failure.
-Publishes ~/trajectory (the joint trajectory, same header stamp as the returned Path), ~/markers, ~/status (state,
-reason of the last failure, timings), ~/plan_result (diagnostic_msgs/DiagnosticStatus: the outcome of every
-~/plan request, OK on success, ERROR on a failure or refusal) and, with `execute`, joint_command at
-`command_rate_hz` along the trajectory.
-Parameters: OmplPlannerNodeConfig (config/ompl_planner.yaml), validated; a bad value is refused with a reason.
+Publishes ~/trajectory (the joint trajectory, same header stamp as the returned Path; paths and markers in `world`),
+~/markers, ~/status and /diagnostics (state, reason of the last failure, timings), ~/plan_result
+(diagnostic_msgs/DiagnosticStatus: the outcome of every ~/plan request, OK on success, ERROR on a failure or
+refusal) and, with `execute`, joint_command at `command_rate_hz` along the trajectory.
+Parameters: OmplPlannerNodeConfig (config/ompl_planner.yaml), statically typed with descriptors
+(sim_bridge/ros_params.py); a bad value is refused with its dotted name and the reason; `command_rate_hz` and
+`status_rate_hz` changes re-create their timers; `cloud_topics` and `frames.*` are read-only.
 
     python -m latent_planner_ros run ompl_planner [--ros-args --params-file config/ompl_planner.yaml]
 """
@@ -25,7 +28,7 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, PointCloud2
 from trajectory_msgs.msg import JointTrajectory
@@ -33,8 +36,9 @@ from visualization_msgs.msg import MarkerArray
 
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
-from latent_planner_ros.nodes.ompl_planner_config import OmplPlannerNodeConfig
+from latent_planner_ros.nodes.ompl_planner_config import RANGES, READ_ONLY, OmplPlannerNodeConfig
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
+from latent_planner_ros.perception.frames import WORLD, path_to_world
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.ompl_baseline import OmplPlanner
 from latent_planner_ros.planning.trajectory_stream import TrajectoryStreamer
@@ -46,12 +50,13 @@ from msg_adapters import (
     joint_state_to_q,
     plan_result_status,
     plan_tolerance,
-    pose_stamped_to_target,
     q_to_joint_state,
     status_array,
 )
 from msg_adapters.plan_request import FAILED, REFUSED, SUCCESS
-from sim_bridge.params import ConfigError, from_params, to_params
+from msg_adapters.pose import pose_stamped_in_base
+from sim_bridge.params import ConfigError, from_params
+from sim_bridge.ros_params import ConfigParams
 
 OK, WARN = 0, 1
 """Diagnostic levels (as in diagnostic_msgs/DiagnosticStatus)."""
@@ -60,15 +65,15 @@ OK, WARN = 0, 1
 class OmplPlannerNode(Node):
     def __init__(self):
         super().__init__("ompl_planner")
-        names = to_params(OmplPlannerNodeConfig())
-        for name, value in names.items():
-            self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
-        self.config = from_params(OmplPlannerNodeConfig, {n: self.get_parameter(n).value for n in names})
+        params = ConfigParams(self, OmplPlannerNodeConfig, ranges=RANGES, read_only=READ_ONLY)
+        self.config = params.config
         self.planner = OmplPlanner(self.config.ompl)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
+        params.on_set(self._on_set_parameters)
+        self.frames = self.config.frames.frames()
+        self.joint_names = self.config.frames.joint_names
         self._q: np.ndarray | None = None
         self._q_time = -math.inf
-        self.fusion = CloudFusion(self.config.cloud_topics, self.config.frame_id, self.config.cloud_max_age_s)
+        self.fusion = CloudFusion(self.config.cloud_topics, self.frames, self.config.cloud_max_age_s)
         self._streamer: TrajectoryStreamer | None = None
         self._state, self._last_error = "idle", ""
         self._last: dict[str, object] = {}
@@ -77,13 +82,14 @@ class OmplPlannerNode(Node):
         self.pub_traj = self.create_publisher(JointTrajectory, "~/trajectory", 10)
         self.pub_markers = self.create_publisher(MarkerArray, "~/markers", 10)
         self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
+        self.pub_diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.pub_plan_result = self.create_publisher(DiagnosticStatus, "~/plan_result", 10)
         self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
         for cloud_topic in self.config.cloud_topics:
             self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2)
         self.create_service(GetPlan, "~/plan", self._on_plan)
-        self.create_timer(1.0 / self.config.command_rate_hz, self._on_tick)
-        self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)
+        self._tick_timer = self.create_timer(1.0 / self.config.command_rate_hz, self._on_tick)
+        self._status_timer = self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)
         self.get_logger().info(
             f"OMPL baseline ready: {self.planner.config.planner}, octree {self.config.ompl.octree_resolution} m, "
             f"execute={self.config.execute}"
@@ -97,29 +103,40 @@ class OmplPlannerNode(Node):
         self.get_logger().warning(text, throttle_duration_sec=1.0)
 
     # -- parameters ------------------------------------------------------------------------------
-    def _on_set_parameters(self, params) -> SetParametersResult:
+    def _on_set_parameters(self, changes: dict) -> SetParametersResult:
+        """Apply {dotted name: value}: a new config and planner; rate changes re-create their timers (and the
+        running execution's period); read-only parameters never get here."""
         try:
-            config = from_params(OmplPlannerNodeConfig, {p.name: p.value for p in params}, base=self.config)
-            if tuple(config.cloud_topics) != tuple(self.config.cloud_topics) or config.frame_id != self.fusion.frame_id:
-                raise ConfigError("cloud_topics, frame_id: the subscriptions are fixed at start-up (restart the node)")
+            config = from_params(OmplPlannerNodeConfig, changes, base=self.config)
             planner = OmplPlanner(config.ompl)
         except (ConfigError, ValueError, TypeError) as err:
             return SetParametersResult(successful=False, reason=str(err))
+        if config.command_rate_hz != self.config.command_rate_hz:
+            self._tick_timer = self._replace_timer(self._tick_timer, config.command_rate_hz, self._on_tick)
+            if self._streamer is not None:
+                self._streamer.period = 1.0 / config.command_rate_hz
+        if config.status_rate_hz != self.config.status_rate_hz:
+            self._status_timer = self._replace_timer(self._status_timer, config.status_rate_hz, self._publish_status)
         self.config, self.planner = config, planner
         self.fusion.max_age_s = config.cloud_max_age_s
         return SetParametersResult(successful=True)
 
+    def _replace_timer(self, timer, rate_hz: float, callback):
+        timer.cancel()
+        self.destroy_timer(timer)
+        return self.create_timer(1.0 / rate_hz, callback)
+
     # -- inputs -------------------------------------------------------------------------------------
     def _on_joint_states(self, msg: JointState) -> None:
         try:
-            self._q, _ = joint_state_to_q(msg)
+            self._q, _ = joint_state_to_q(msg, self.joint_names)
         except AdapterError as err:
             self._error(f"joint_states refused: {err}")
             return
         self._q_time = self._now()
 
     def _on_cloud(self, cloud_topic: str, msg: PointCloud2) -> None:
-        frame = msg.header.frame_id or self.config.frame_id  # an empty frame is taken as frame_id
+        frame = msg.header.frame_id  # an empty frame is taken as world
         try:
             self.fusion.check(cloud_topic, frame)
             stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
@@ -138,7 +155,7 @@ class OmplPlannerNode(Node):
     def _on_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
         """Plan once; every request, refused or planned, is answered on ~/plan_result as well."""
         response.plan = Path()
-        response.plan.header.frame_id = self.config.frame_id
+        response.plan.header.frame_id = WORLD
         response.plan.header.stamp = self.get_clock().now().to_msg()
         outcome, reason, result = self._plan(request, response)
         if outcome == REFUSED:
@@ -158,7 +175,7 @@ class OmplPlannerNode(Node):
         if q is None:
             return REFUSED, "no fresh joint states", None
         try:
-            target = pose_stamped_to_target(request.goal, expected_frame=self.config.frame_id)
+            target = pose_stamped_in_base(request.goal, self.frames)
             pos_tol = plan_tolerance(request.tolerance, self.config.pos_tol)
             ori_tol = math.radians(self.config.ori_tol_deg)
             goal = Goal(target.position, target.rotation, pos_tol=pos_tol, ori_tol=ori_tol)
@@ -190,10 +207,11 @@ class OmplPlannerNode(Node):
         if not result.success:
             return FAILED, result.reason, result
         stamp = response.plan.header.stamp
-        frame = self.config.frame_id
-        response.plan = ee_path_to_path(result.ee_positions, result.ee_quaternions, frame_id=frame, stamp=stamp)
-        self.pub_traj.publish(joint_path_to_trajectory(result.q_path, result.times, stamp=stamp))
-        self.pub_markers.publish(path_markers(result.ee_positions, goal.position, stamp, frame_id=frame))
+        positions, quaternions = path_to_world(self.frames, result.ee_positions, result.ee_quaternions)
+        response.plan = ee_path_to_path(positions, quaternions, frame_id=WORLD, stamp=stamp)
+        self.pub_traj.publish(joint_path_to_trajectory(result.q_path, result.times, self.joint_names, stamp=stamp))
+        goal_in_world = self.frames.base_to_world(goal.position[None])[0]
+        self.pub_markers.publish(path_markers(positions, goal_in_world, stamp, frame_id=WORLD))
         self._state = "planned"
         if self.config.execute:
             self._streamer = TrajectoryStreamer(result.q_path, result.times, period=1.0 / self.config.command_rate_hz)
@@ -217,7 +235,8 @@ class OmplPlannerNode(Node):
             self._streamer = None
             self._state = "executed"
             return
-        self.pub_command.publish(q_to_joint_state(command, stamp=self.get_clock().now().to_msg()))
+        stamp = self.get_clock().now().to_msg()
+        self.pub_command.publish(q_to_joint_state(command, names=self.joint_names, stamp=stamp))
 
     def _publish_status(self) -> None:
         level = WARN if self._state == "failed" else OK
@@ -232,6 +251,7 @@ class OmplPlannerNode(Node):
         stamp = self.get_clock().now().to_msg()
         msg = status_array("ompl_planner", level, message, values, self.planner.name, stamp)
         self.pub_status.publish(msg)
+        self.pub_diagnostics.publish(msg)
 
 
 def main() -> int:

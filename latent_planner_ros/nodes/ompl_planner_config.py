@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from latent_planner_ros.nodes.frames_config import FRAMES_READ_ONLY, FramesConfig
+from latent_planner_ros.nodes.param_ranges import PLANNING_RANGES
 from latent_planner_ros.nodes.scene_encoder_config import check_topics
 from latent_planner_ros.planning.ompl_baseline_config import OmplConfig
 from sim_bridge.params import ConfigError, check_number
@@ -23,14 +25,13 @@ class OmplPlannerNodeConfig:
     """goal position tolerance [m] when a request's tolerance is 0"""
     ori_tol_deg: float = 15.0
     """goal orientation tolerance [deg]"""
-    frame_id: str = "world"
-    """frame of goals, clouds and returned paths (the Panda base)"""
     status_rate_hz: float = 2.0
     """status publishing rate [Hz]"""
     cloud_topics: tuple[str, ...] = ("camera/points",)
-    """the cloud topics (one per camera, in frame_id) fused into the occupancy map; fixed at start-up"""
+    """the cloud topics (one per camera; frames as `frames` accepts) fused into the occupancy map; fixed at start-up"""
     cloud_max_age_s: float = 0.5
     """[s] a topic's newest cloud stamped further than this from the newest cloud is left out as stale; 0 = never"""
+    frames: FramesConfig = field(default_factory=FramesConfig)
     ompl: OmplConfig = field(default_factory=OmplConfig)
 
     def __post_init__(self) -> None:
@@ -44,5 +45,20 @@ class OmplPlannerNodeConfig:
         check_number("status_rate_hz", self.status_rate_hz, 0.0, 100.0, open_low=True)
         check_topics("cloud_topics", self.cloud_topics)
         check_number("cloud_max_age_s", self.cloud_max_age_s, 0.0, 3600.0)
-        if not (isinstance(self.frame_id, str) and self.frame_id):
-            raise ConfigError(f"frame_id: expected a non-empty string, got {self.frame_id!r}")
+
+
+RANGES = {
+    **PLANNING_RANGES,
+    OmplPlannerNodeConfig: {
+        "command_rate_hz": "(0, 100]",
+        "stale_joint_states_s": "(0, 60]",
+        "pos_tol": "(0, 1]",
+        "ori_tol_deg": "(0, 180]",
+        "status_rate_hz": "(0, 100]",
+        "cloud_max_age_s": "[0, 3600]",
+    },
+}
+"""Valid ranges of the ompl_planner's parameters, as the validation enforces them."""
+
+READ_ONLY = ("cloud_topics", *FRAMES_READ_ONLY)
+"""Parameters fixed at start-up (subscriptions and frames)."""

@@ -35,7 +35,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, PointCloud2
 from std_srvs.srv import SetBool
@@ -46,7 +46,7 @@ from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.vae_io import load_vae
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
-from latent_planner_ros.nodes.planner_config import PlannerNodeConfig
+from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from latent_planner_ros.perception.scene_input import limit_points
 from latent_planner_ros.planning.amp_ls import AmpLs
@@ -66,30 +66,30 @@ from msg_adapters import (
     joint_state_to_q,
     plan_result_status,
     plan_tolerance,
-    pose_stamped_to_target,
     q_to_joint_state,
     status_array,
 )
 from msg_adapters.plan_request import FAILED, REFUSED, SUCCESS
-from sim_bridge.params import ConfigError, from_params, to_params
+from msg_adapters.pose import pose_stamped_in_base
+from sim_bridge.params import ConfigError, from_params
+from sim_bridge.ros_params import ConfigParams
 
 
 class PlannerNode(Node):
     def __init__(self):
         super().__init__("planner")
         torch.set_num_threads(1)  # small batches: threads only add contention with the sim and the encoder
-        self._param_names = names = to_params(PlannerNodeConfig())
-        for name, value in names.items():
-            self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
-        self.config = from_params(PlannerNodeConfig, {n: self.get_parameter(n).value for n in names})
+        params = ConfigParams(self, PlannerNodeConfig, ranges=RANGES, read_only=READ_ONLY)
+        self.config = params.config
+        self.frames, self.joint_names = self.config.frames.frames(), self.config.frames.joint_names
         self.vae, _ = load_vae(self.config.vae_checkpoint or None)
         self.modes = self._make_modes(self.config, self.vae)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
+        params.on_set(self._on_set_parameters)
         self._last_error = ""
         self._last_outcome = TickOutcome(None, "starting", "starting")
         self._cloud_msgs: dict[str, PointCloud2] = {}  # the newest cloud of each topic, not yet converted
         self._cloud_time = 0.0
-        self.fusion = CloudFusion(self.config.cloud_topics, "world", self.config.cloud_max_age_s)
+        self.fusion = CloudFusion(self.config.cloud_topics, self.frames, self.config.cloud_max_age_s)
         self._cloud_sources = "none"
         self._last_cloud = None  # (points (N, 3), receipt time [s]) of the last converted cloud
         self._cloud_points = (0, 0)  # points received, points used (finite, downsampled) of the last cloud
@@ -137,14 +137,13 @@ class PlannerNode(Node):
         self.get_logger().warning(text, throttle_duration_sec=1.0)
 
     # -- parameters ------------------------------------------------------------------------------
-    def _on_set_parameters(self, params) -> SetParametersResult:
-        ours = {p.name: p.value for p in params if p.name in self._param_names}  # not use_sim_time etc.
-        if not ours:
-            return SetParametersResult(successful=True)
+    def _on_set_parameters(self, ours: dict) -> SetParametersResult:
+        """Apply {dotted name: value} of our parameters (read-only ones never get here, nor use_sim_time)."""
         try:
             config = from_params(PlannerNodeConfig, ours, base=self.config)
-            if tuple(config.cloud_topics) != tuple(self.config.cloud_topics):
-                raise ConfigError("cloud_topics: the subscriptions are fixed at start-up (restart the node)")
+            learned = [c.amp_ls.collision_backend == "learned" for c in (config, self.config)]
+            if learned[0] != learned[1]:  # the scene_embedding subscription exists only with the learned backend
+                raise ConfigError("amp_ls.collision_backend: a change to or from learned needs a restart of the node")
             vae = (
                 self.vae
                 if config.vae_checkpoint == self.config.vae_checkpoint
@@ -175,7 +174,7 @@ class PlannerNode(Node):
     # -- inputs -------------------------------------------------------------------------------------
     def _on_joint_states(self, msg: JointState) -> None:
         try:
-            q, _ = joint_state_to_q(msg)
+            q, _ = joint_state_to_q(msg, self.joint_names)
         except AdapterError as err:
             self._error(f"joint_states refused: {err}")
             return
@@ -254,7 +253,7 @@ class PlannerNode(Node):
         self._markers_published = len(cylinders)
 
     def _goal_from(self, msg: PoseStamped, tolerance: float = 0.0) -> Goal:
-        target = pose_stamped_to_target(msg)
+        target = pose_stamped_in_base(msg, self.frames)  # world, base or extrinsic frame -> base frame
         cfg = self.modes.active.planner.config
         pos_tol = plan_tolerance(tolerance, cfg.pos_tol)
         return Goal(target.position, target.rotation, pos_tol=pos_tol, ori_tol=cfg.ori_tol)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from latent_planner_ros.nodes.frames_config import FRAMES_READ_ONLY, FramesConfig
+from latent_planner_ros.nodes.param_ranges import PLANNING_RANGES
 from latent_planner_ros.nodes.scene_encoder_config import check_topics
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig
@@ -37,10 +39,11 @@ class PlannerNodeConfig:
     status_rate_hz: float = 2.0
     """status publishing rate [Hz]"""
     cloud_topics: tuple[str, ...] = ("camera/points",)
-    """the cloud topics (one per camera, frame `world`) fused for the geometric backend, the hard check and the goal
-    checks; fixed at start-up"""
+    """the cloud topics (one per camera; frames as `frames` accepts) fused for the geometric backend, the hard check
+    and the goal checks; fixed at start-up"""
     cloud_max_age_s: float = 0.5
     """[s] a topic's newest cloud stamped further than this from the newest cloud is left out as stale; 0 = never"""
+    frames: FramesConfig = field(default_factory=FramesConfig)
     closed_loop: ClosedLoopConfig = field(default_factory=ClosedLoopConfig)
     amp_ls: AmpLsConfig = field(default_factory=AmpLsConfig)
     lspp: AmpLsConfig = field(default_factory=lspp_config)
@@ -71,3 +74,20 @@ class PlannerNodeConfig:
                 "lspp must plan around the cylinders with position-only goals: "
                 "lspp.collision_backend = cylinders, lspp.use_collision = true, lspp.use_orientation = false"
             )
+
+
+RANGES = {
+    **PLANNING_RANGES,
+    PlannerNodeConfig: {
+        "obstacle_tilt_tol_deg": "[0, 45]",
+        "obstacle_z_tol_m": "[0, 1]",
+        "cloud_max_points": "[1000, 10000000]",
+        "cloud_voxel_m": "[0, 0.5]",
+        "status_rate_hz": "(0, 100]",
+        "cloud_max_age_s": "[0, 3600]",
+    },
+}
+"""Valid ranges of the planner's parameters (sim_bridge/param_specs.py), as the validation enforces them."""
+
+READ_ONLY = ("cloud_topics", *FRAMES_READ_ONLY)
+"""Parameters fixed at start-up (subscriptions and frames)."""

@@ -1,19 +1,21 @@
 """scene_encoder node: point clouds -> voxel scene embeddings for the learned collision backend.
 
-Subscribes each topic of `cloud_topics` (sensor_msgs/PointCloud2, frame `world`, robot points removed; default
-camera/points) and, beside each, its camera's pose topic (geometry_msgs/PoseStamped, frame `world`: the optical
+Subscribes each topic of `cloud_topics` (sensor_msgs/PointCloud2 in `world`, the robot base frame or a frame of
+`frames.extrinsics`, robot points removed; default camera/points) and, beside each, its camera's pose topic
+(geometry_msgs/PoseStamped, same frames: the optical
 centre, for a network with visibility channels; `camera/points` -> `camera/pose`). It keeps the newest cloud of
 each topic and, once every camera that is not stale has delivered a new cloud (at once with one camera), fuses
-them in `world` with one camera origin per point (perception/cloud_fusion.py): a topic whose newest cloud is
-stamped more than cloud_max_age_s from the newest one is left out and named on the status (WARN). It drops
+them in the robot base frame with one camera origin per point (perception/cloud_fusion.py): a topic whose newest
+cloud is stamped more than cloud_max_age_s from the newest one is left out and named on the status (WARN). It drops
 NaN/inf points, crops to the encoder's workspace bounds, downsamples clouds above max_points (each camera's
 points apart, so they keep their origin), encodes (each point with its camera's newest pose if stamped within
 origin_max_age_s of its cloud, else with the origin unknown) and publishes scene_embedding (PointCloud2 of voxel
-centres with float32 fields f0..fC-1, frame `world`, stamp of the cloud that completed the round). An empty cloud
-is encoded as an empty scene (status WARN); a malformed cloud, or one in another frame, is refused with the topic
-and the reason (status ERROR, logged, nothing published; the topic keeps its previous cloud). ~/status
-(diagnostic_msgs/DiagnosticArray) at status_rate_hz.
-Parameters: SceneEncoderNodeConfig (config/scene_encoder.yaml), validated; a bad value is refused with a reason.
+centres with float32 fields f0..fC-1, frame `<frames.joint_prefix>link0`, stamp of the cloud that completed the
+round). An empty cloud is encoded as an empty scene (status WARN); a malformed cloud, or one in another frame, is
+refused with the topic and the reason (status ERROR, logged, nothing published; the topic keeps its previous
+cloud). ~/status and /diagnostics (diagnostic_msgs/DiagnosticArray) at status_rate_hz.
+Parameters: SceneEncoderNodeConfig (config/scene_encoder.yaml), statically typed with descriptors
+(sim_bridge/ros_params.py); a bad value is refused with its dotted name and the reason.
 
     python -m latent_planner_ros run scene_encoder [--ros-args --params-file config/scene_encoder.yaml]
 """
@@ -28,7 +30,7 @@ import numpy as np
 import torch
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import PointCloud2
 
@@ -36,13 +38,12 @@ from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.collision_io import load_scene_encoder
 from latent_planner_ros.models.scene_encoder import SceneEncoder
 from latent_planner_ros.nodes.node_main import run_node
-from latent_planner_ros.nodes.scene_encoder_config import SceneEncoderNodeConfig
+from latent_planner_ros.nodes.scene_encoder_config import RANGES, READ_ONLY, SceneEncoderNodeConfig
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused, pose_topic_of
 from latent_planner_ros.perception.scene_input import SceneInputMonitor, prepare_cloud
 from msg_adapters import AdapterError, cloud_to_xyz, embedding_to_cloud, pose_stamped_to_target, status_array
-from sim_bridge.params import ConfigError, from_params, to_params
-
-FRAME = "world"
+from sim_bridge.params import ConfigError, from_params
+from sim_bridge.ros_params import ConfigParams
 
 
 def _load_encoder(checkpoint: str) -> SceneEncoder:
@@ -53,19 +54,17 @@ def _load_encoder(checkpoint: str) -> SceneEncoder:
 class SceneEncoderNode(Node):
     def __init__(self):
         super().__init__("scene_encoder")
-        self._param_names = to_params(SceneEncoderNodeConfig())
-        for name, value in self._param_names.items():
-            self.declare_parameter(name, value, ParameterDescriptor(dynamic_typing=True))
-        params = {n: self.get_parameter(n).value for n in self._param_names}
-        self.config = from_params(SceneEncoderNodeConfig, params)
+        params = ConfigParams(self, SceneEncoderNodeConfig, ranges=RANGES, read_only=READ_ONLY)
+        self.config = params.config
         self.encoder = _load_encoder(self.config.checkpoint)
         cfg = self.config
         self.monitor = SceneInputMonitor(cfg.stale_after_s, ", ".join(cfg.cloud_topics))
-        self.fusion = CloudFusion(cfg.cloud_topics, FRAME, cfg.cloud_max_age_s, cfg.origin_max_age_s)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.fusion = CloudFusion(cfg.cloud_topics, cfg.frames.frames(), cfg.cloud_max_age_s, cfg.origin_max_age_s)
+        params.on_set(self._on_set_parameters)
 
         self.pub_embedding = self.create_publisher(PointCloud2, "scene_embedding", 2)
         self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
+        self.pub_diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         for cloud_topic in cfg.cloud_topics:
             self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2)
             pose_topic = pose_topic_of(cloud_topic)
@@ -82,12 +81,10 @@ class SceneEncoderNode(Node):
         return self.get_clock().now().nanoseconds * 1e-9
 
     # -- parameters ------------------------------------------------------------------------------
-    def _on_set_parameters(self, params) -> SetParametersResult:
-        ours = {p.name: p.value for p in params if p.name in self._param_names}  # not use_sim_time etc.
+    def _on_set_parameters(self, ours: dict) -> SetParametersResult:
+        """Apply {dotted name: value} of our parameters (read-only ones never get here, nor use_sim_time)."""
         try:
             config = from_params(SceneEncoderNodeConfig, ours, base=self.config)
-            if tuple(config.cloud_topics) != tuple(self.config.cloud_topics):
-                raise ConfigError("cloud_topics: the subscriptions are fixed at start-up (restart the node)")
             encoder = _load_encoder(config.checkpoint) if config.checkpoint != self.config.checkpoint else None
         except (ConfigError, CheckpointError) as err:
             return SetParametersResult(successful=False, reason=str(err))
@@ -110,7 +107,7 @@ class SceneEncoderNode(Node):
 
     def _on_camera_pose(self, cloud_topic: str, msg: PoseStamped) -> None:
         try:
-            pose = pose_stamped_to_target(msg, FRAME)
+            pose = pose_stamped_to_target(msg, expected_frame=None)  # the fusion moves it into the base frame
             self.fusion.add_pose(cloud_topic, pose.position, msg.header.frame_id, _seconds(msg.header.stamp))
         except (AdapterError, CloudRefused) as err:  # the previous origin stays; the reason is reported
             text = str(err) if isinstance(err, CloudRefused) else f"{pose_topic_of(cloud_topic)} refused: {err}"
@@ -147,7 +144,7 @@ class SceneEncoderNode(Node):
                                   n_in, origins)  # fmt: skip
             with torch.no_grad():
                 centres, features = self.encoder.encode(cloud.points, cloud.origins).to_points()
-            out = embedding_to_cloud(centres, features, frame_id=FRAME, stamp=stamp)
+            out = embedding_to_cloud(centres, features, frame_id=self.fusion.frame_id, stamp=stamp)
         except (AdapterError, ValueError, RuntimeError) as err:  # never stop on one bad cloud
             reason = f"{', '.join(fused.sources)} not encoded: {err}"
             self.monitor.on_refused(self._now(), reason, n_in)
@@ -166,6 +163,7 @@ class SceneEncoderNode(Node):
         stamp = self.get_clock().now().to_msg()
         msg = status_array("scene_encoder", report.level, report.message, report.values, "scene_encoder", stamp)
         self.pub_status.publish(msg)
+        self.pub_diagnostics.publish(msg)
 
 
 def _seconds(stamp) -> float:

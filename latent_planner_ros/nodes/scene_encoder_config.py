@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
+from latent_planner_ros.nodes.frames_config import FRAMES_READ_ONLY, FramesConfig
 from sim_bridge.params import ConfigError, check_int, check_number
 
 
@@ -22,10 +23,11 @@ class SceneEncoderNodeConfig:
     origin_max_age_s: float = 1.0
     """[s] a camera's pose stamped further than this from its cloud's stamp is not used with it; 0 = any age"""
     cloud_topics: tuple[str, ...] = ("camera/points",)
-    """the cloud topics fused into one scene (one per camera, frame `world`); each camera's origin comes from the
-    pose topic beside its cloud (`camera/points` -> `camera/pose`); fixed at start-up"""
+    """the cloud topics fused into one scene (one per camera; frames as `frames` accepts); each camera's origin comes
+    from the pose topic beside its cloud (`camera/points` -> `camera/pose`); fixed at start-up"""
     cloud_max_age_s: float = 0.5
     """[s] a topic's newest cloud stamped further than this from the newest cloud is left out as stale; 0 = never"""
+    frames: FramesConfig = field(default_factory=FramesConfig)
 
     def __post_init__(self) -> None:
         if not isinstance(self.checkpoint, str):
@@ -50,3 +52,19 @@ def check_topics(name: str, topics) -> None:
         raise ConfigError(f"{name}: expected 1 to {MAX_CLOUD_TOPICS} topic names, got {topics!r}")
     if len(set(topics)) != len(topics):
         raise ConfigError(f"{name}: {list(topics)} lists a topic twice")
+
+
+RANGES = {
+    SceneEncoderNodeConfig: {
+        "max_points": "[1, 10000000]",
+        "downsample_voxel": "[0, 0.5]",
+        "stale_after_s": "(0, 3600]",
+        "status_rate_hz": "(0, 100]",
+        "origin_max_age_s": "[0, 3600]",
+        "cloud_max_age_s": "[0, 3600]",
+    }
+}
+"""Valid ranges of the scene_encoder's parameters, as the validation enforces them."""
+
+READ_ONLY = ("cloud_topics", *FRAMES_READ_ONLY)
+"""Parameters fixed at start-up (subscriptions and frames)."""

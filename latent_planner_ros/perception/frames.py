@@ -161,3 +161,15 @@ def parse_extrinsics(text: str) -> dict[str, Transform]:
         except ValueError as err:
             raise ValueError(f"{entry!r}: {err}") from None
     return out
+
+
+def path_to_world(frames: Frames, positions: np.ndarray, quaternions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A path in the base frame, positions (T, 3) [m] and quaternions (T, 4) (x, y, z, w), in `world`."""
+    t = frames.base_in_world
+    if t.is_identity:
+        return positions, quaternions
+    from scipy.spatial.transform import Rotation  # only for a robot not at the origin
+
+    positions = t.points(np.asarray(positions, dtype=float).reshape(-1, 3))
+    rotations = Rotation.from_matrix(t.rotation) * Rotation.from_quat(np.asarray(quaternions).reshape(-1, 4))
+    return positions, rotations.as_quat()

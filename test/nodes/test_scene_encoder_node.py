@@ -60,7 +60,7 @@ def send(name, msg, sec, expect, embedding):
     msg.header.stamp = Time(sec=sec, nanosec=7)
     def done():
         ok = bool(statuses) and expect in statuses[-1].message
-        return ok and (not embedding or (sec, "world") in embeddings)
+        return ok and (not embedding or (sec, "panda_link0") in embeddings)
     for _ in range(40):
         pub.publish(msg)
         if spin_until(done, 0.5):
@@ -118,7 +118,7 @@ def with_pose(name, pose_xyz, pose_sec, cloud, sec, expect):
     def done():
         if not statuses or f"encoded {len(cloud)} points" not in statuses[-1].message:
             return False
-        return expect in status_dict(statuses[-1])["values"]["camera_origin"] and (sec, "world") in embeddings
+        return expect in status_dict(statuses[-1])["values"]["camera_origin"] and (sec, "panda_link0") in embeddings
     for _ in range(40):
         pose_pub.publish(pose)
         spin_until(lambda: False, 0.1)
@@ -134,10 +134,10 @@ with_pose("origin_known", (1.6, 0.7, 0.9), 201, seen, 201, "known")
 with_pose("origin_refused", (float("nan"), 0.0, 1.0), 201, inside[:301], 203, "unknown: newest camera/pose is 2.00 s")
 
 for sec in (101, 105, 106, 107, 108, 201):
-    c, f = cloud_to_embedding(embeddings[(sec, "world")])
+    c, f = cloud_to_embedding(embeddings[(sec, "panda_link0")])
     np.savez(f"{out_dir}/embedding_{sec}.npz", centres=c, features=f)
 results["embedding_stamps"] = sorted(s for s, _ in embeddings)
-results["embedding_nanosec"] = embeddings[(101, "world")].header.stamp.nanosec
+results["embedding_nanosec"] = embeddings[(101, "panda_link0")].header.stamp.nanosec
 assert spin_until(lambda: "stale" in statuses[-1].message, 10.0), statuses[-1].message
 results["stale"] = status_dict(statuses[-1])
 print(json.dumps(results))
