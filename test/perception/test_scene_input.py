@@ -148,4 +148,5 @@ def test_node_config_validation_and_yaml():
 
     yaml_path = Path(cli_file).resolve().parents[1] / "config" / "scene_encoder.yaml"
     params = yaml.safe_load(yaml_path.read_text())["scene_encoder"]["ros__parameters"]
+    params.update({f"frames.{k}": v for k, v in params.pop("frames").items()})  # YAML nesting = dotted names
     assert from_params(SceneEncoderNodeConfig, params) == config
