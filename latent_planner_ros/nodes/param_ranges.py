@@ -22,6 +22,9 @@ CLOSED_LOOP = {
     **dict.fromkeys(
         ("goal_clearance_m", "goal_lead_s", "goal_lead_max_m", "evade_margin_m", "evade_approach_mps"), ">= 0"
     ),
+    "plan_wait_s": ">= 0",
+    "replan_after_s": "> 0",
+    "follow_goal_tol_m": "> 0",
 }
 
 AMP_LS = {

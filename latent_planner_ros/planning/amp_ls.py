@@ -362,6 +362,22 @@ class AmpLs(PlanAdditions):
             return self.config.interp_steps
         return max(1, int(np.ceil(np.abs(q_to - q_from).max() / self.config.check_step_rad)))
 
+    def segment_free(self, q_from: np.ndarray, q_to: np.ndarray, escape_from: np.ndarray | None = None) -> bool:
+        """True if the straight segment q_from (7,) -> q_to (7,) [rad] passes the hard check against the backend's
+        current scene (the closed loop's check of a command that did not come from `step`). escape_from (7,)
+        [rad]: the start of a plan whose start the check refused; states within escape_rad of it are let pass, as
+        `plan` let them (see escape_rad)."""
+        self._escape_from = None if escape_from is None or self.config.escape_rad <= 0 else escape_from
+        try:
+            return self._free(self._densify(np.asarray(q_from, dtype=float), np.asarray(q_to, dtype=float)))
+        finally:
+            self._escape_from = None
+
+    def arm_at_goal(self, q: np.ndarray, goal: Goal) -> tuple[bool, float, float]:
+        """(within tolerance, position error [m], orientation error [rad]) of q's (7,) [rad] TCP pose to goal."""
+        pe, oe = self._fk_err(np.asarray(q, dtype=float), goal)
+        return self._reached(pe, oe, goal), pe, oe
+
     def _free(self, seg: np.ndarray, stride: int = 4) -> bool:
         """True if every state of the segment (m, 7) [rad] passes the hard check: every stride-th state first, the
         rest only if those pass (a colliding segment is usually refused at a quarter of the cost)."""

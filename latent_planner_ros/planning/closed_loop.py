@@ -17,6 +17,7 @@ import numpy as np
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.evasion import Evader
 from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.plan_follow import STILL_GOAL_MPS, PlanFollower
 from latent_planner_ros.robot.limits import JOINT_NAMES, Q_MAX, Q_MIN, V_MAX
 
 OK, WARN, ERROR = 0, 1, 2
@@ -69,6 +70,16 @@ class ClosedLoopConfig:
     evade_approach_mps: float = 0.02
     """[m/s] approach speed of the observed cloud (its clearance to the held arm, over about 0.3 s) that counts
     as an obstacle moving towards the arm"""
+    follow_plans: bool = True
+    """plan each still goal in the background with the open-loop planner (all its seeds and restarts) and follow
+    its path, hard-checking every command against the newest scene; local steps while a plan is missing, blocked
+    or the goal moves (planning/plan_follow.py). False: local steps only. Needs a plan runner (the node has one)"""
+    plan_wait_s: float = 1.0
+    """[s] the arm holds this long for the background plan of a new goal before it steps locally"""
+    replan_after_s: float = 2.0
+    """[s] without a path to follow, local steps without progress for this long ask for a new background plan"""
+    follow_goal_tol_m: float = 0.02
+    """[m] a path is followed only while the goal is within this of the goal it was planned for"""
 
     def __post_init__(self) -> None:
         positive = ("rate_hz", "stale_joint_states_s", "stale_scene_s", "no_progress_s", "progress_m", "reach_m")
@@ -80,7 +91,14 @@ class ClosedLoopConfig:
             v = getattr(self, name)
             if not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 100):
                 raise ValueError(f"{name} must be an integer in [1, 100], got {v!r}")
-        for name in ("goal_clearance_m", "goal_lead_s", "goal_lead_max_m", "evade_margin_m", "evade_approach_mps"):
+        if not isinstance(self.follow_plans, bool):
+            raise ValueError(f"follow_plans must be true or false, got {self.follow_plans!r}")
+        for name in ("replan_after_s", "follow_goal_tol_m"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+        names = ("goal_clearance_m", "goal_lead_s", "goal_lead_max_m", "evade_margin_m", "evade_approach_mps")
+        for name in (*names, "plan_wait_s"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
@@ -106,11 +124,24 @@ class TickOutcome:
 
 
 class ClosedLoopController:
-    """Feeds AMP-LS with the latest inputs at every tick; times are seconds on one clock."""
+    """Feeds AMP-LS with the latest inputs at every tick; times are seconds on one clock.
 
-    def __init__(self, planner: AmpLs, config: ClosedLoopConfig | None = None):
+    Args:
+        planner: the planner whose `step` makes the local steps (and whose backend checks every command).
+        config: rates, budgets and watchdogs.
+        runner: runs background plans (planning/plan_runner.py) on a planner instance of its own; None (or
+            config.follow_plans false) = local steps only.
+    """
+
+    def __init__(self, planner: AmpLs, config: ClosedLoopConfig | None = None, runner: Any = None):
         self.planner = planner
         self.config = config or ClosedLoopConfig()
+        cfg = self.config
+        self.follower = (
+            PlanFollower(runner, 1.0 / cfg.rate_hz, cfg.follow_goal_tol_m, cfg.replan_after_s, cfg.plan_wait_s)
+            if runner is not None and cfg.follow_plans
+            else None
+        )
         self.enabled = True
         self.goal: Goal | None = None
         self._q: np.ndarray | None = None
@@ -123,6 +154,7 @@ class ClosedLoopController:
         self._best_time = 0.0
         self._best_goal: np.ndarray | None = None
         self._goal_track: deque[tuple[float, np.ndarray]] = deque()  # (time [s], position (3,) [m]) of goals
+        self._checked_scene: Any = None  # the scene last handed to the backend for a followed command
         checker = getattr(planner, "checker", None)
         self._evader = Evader(self.config.evade_margin_m, checker=checker) if self.config.evade_margin_m > 0 else None
 
@@ -217,6 +249,8 @@ class ClosedLoopController:
         """Forget the goal (the arm holds until a new one)."""
         self.goal = None
         self._goal_track.clear()
+        if self.follower is not None:
+            self.follower.forget()
 
     def restart(self, now: float) -> None:
         """Start afresh at time now [s]: clear a failure, restart the progress watchdog and re-encode the measured
@@ -224,9 +258,13 @@ class ClosedLoopController:
         self._failed = None
         self._best_err, self._best_time, self._best_goal = np.inf, now, None
         self.planner.reset()
+        if self.follower is not None:
+            self.follower.forget()
 
     def set_enabled(self, enabled: bool) -> None:
         self.enabled = enabled
+        if self.follower is not None:
+            self.follower.forget()
         if enabled:
             self._failed = None
             self.planner.reset()
@@ -251,6 +289,10 @@ class ClosedLoopController:
             age = "never received" if self._scene is None else f"{now - self._scene_time:.2f} s old"
             self._best_time = now
             return TickOutcome(hold, "holding", f"holding: scene {age}", WARN)
+        if self.follower is not None:
+            outcome = self._follow(now, hold)
+            if outcome is not None:
+                return outcome
         t0 = time.perf_counter()
         out = self.planner.step(
             self._q,
@@ -269,8 +311,11 @@ class ClosedLoopController:
             "ori_err_deg": float(np.degrees(out.ori_err_rad)),
             "p_collision": out.p_collision,
             "tick_ms": tick_ms,
+            "command_source": "local",
             **out.losses,
         }
+        if self.follower is not None:
+            values["plan_note"] = self.follower.note
         moved = self._best_goal is not None and np.linalg.norm(self.goal.position - self._best_goal) > cfg.progress_m
         if out.reached or moved or err < self._best_err - cfg.progress_m:
             # progress, or within tolerance, or the goal moved on (a tracked target): the watchdog restarts
@@ -286,6 +331,53 @@ class ClosedLoopController:
             return evasion
         state = "reached" if out.reached else "tracking"
         return TickOutcome(out.command, state, out.reason, OK, values)
+
+    def _follow(self, now: float, hold: np.ndarray) -> TickOutcome | None:
+        """The tick's outcome from the background plan: the next hard-checked command along its path, or a hold
+        while the plan of a new goal is awaited; None = step locally (see planning/plan_follow.py)."""
+        f, use_scene = self.follower, self.planner.config.use_collision
+        scene = self._scene if use_scene else None
+        speed = float(np.linalg.norm(self.goal_velocity()))
+        f.update(now, self._q, self.goal, speed, now - self._best_time, scene, self._cloud)
+        t0 = time.perf_counter()
+        target = f.command(self._q, self.goal)
+        if target is not None:
+            if use_scene and scene is not self._checked_scene:  # (a geometric scene costs a distance field)
+                self.planner.backend.set_scene(scene)
+                self._checked_scene = scene
+            if not self.planner.segment_free(self._q, target, f.escape_from):
+                f.drop("its next command collides in the newest scene")
+                target = None
+        if target is None:
+            if speed <= STILL_GOAL_MPS:  # a still goal already within tolerance: stay (local steps would wander)
+                at_goal, pos_err, ori_err = self.planner.arm_at_goal(self._q, self.goal)
+                if at_goal:
+                    self.planner.reset()
+                    self._best_err, self._best_time = min(pos_err, self._best_err), now
+                    values = {"pos_err_m": pos_err, "arm_pos_err_m": pos_err, "ori_err_deg": float(np.degrees(ori_err))}
+                    return TickOutcome(hold, "reached", "reached", OK, {**values, "command_source": "hold"})
+            if f.waiting(now):
+                self._best_time = now  # waiting for a plan is not a lack of progress
+                values = {"command_source": "wait", "plan_note": f.note}
+                return TickOutcome(hold, "holding", "holding: waiting for the background plan", OK, values)
+            return None
+        self.planner.reset()  # local steps re-encode from wherever the path leaves the arm
+        reached, pos_err, ori_err = self.planner.arm_at_goal(self._q, self.goal)
+        values = {
+            "pos_err_m": pos_err,
+            "arm_pos_err_m": pos_err,
+            "ori_err_deg": float(np.degrees(ori_err)),
+            "tick_ms": (time.perf_counter() - t0) * 1000.0,
+            "command_source": "plan",
+            "plan_note": f.note,
+        }
+        self._best_err, self._best_time, self._best_goal = min(pos_err, self._best_err), now, self.goal.position.copy()
+        evasion = self._evasion(now, values, command=target)
+        if evasion is not None:
+            f.drop("evading an approaching obstacle")
+            return evasion
+        reason = "reached" if reached else f"following the background plan ({f.waypoint})"
+        return TickOutcome(target, "reached" if reached else "tracking", reason, OK, values)
 
     def _evasion(
         self, now: float, values: dict[str, Any], fresh_cloud: bool = False, command: np.ndarray | None = None

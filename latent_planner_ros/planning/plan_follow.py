@@ -1,0 +1,132 @@
+"""Background plans for the closed loop, and the following of their paths. ROS-free.
+
+A still goal is planned once in the background by the open-loop planner (all its seeds, restarts and escapes);
+while the plan runs the loop holds for up to `plan_wait_s`, then steps locally. When the plan arrives for the
+goal still being chased, its path is streamed at the control rate (TrajectoryStreamer: velocity-limited targets
+that wait for a lagging arm). The closed loop hard-checks every streamed command against the newest scene; a
+blocked command, a goal that moved by more than `follow_goal_tol_m` or a finished path hands back to local steps.
+Without a path to follow, local steps that make no progress for `replan_after_s` ask for a new plan (new seeds).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.plan_runner import PlanOutcome, PlanRequest
+from latent_planner_ros.planning.trajectory_stream import TrajectoryStreamer
+
+STILL_GOAL_MPS = 0.02
+"""[m/s] a goal moving slower than this is still: it is worth a background plan"""
+
+
+class PlanFollower:
+    """Requests background plans through `runner` (ThreadedPlanRunner or DeferredPlanRunner) and streams their
+    paths at `period` [s].
+
+    Args:
+        runner: submit(PlanRequest, now), poll(now) -> PlanOutcome | None, busy.
+        period: control period [s].
+        follow_goal_tol_m: a path is followed only while the goal is within this [m] of the goal it was planned for.
+        replan_after_s: local steps without progress for this long [s] ask for a new plan.
+        plan_wait_s: the loop holds this long [s] for the plan of a new goal before it steps locally.
+    """
+
+    def __init__(self, runner: Any, period: float, follow_goal_tol_m: float, replan_after_s: float, plan_wait_s: float):
+        self.runner = runner
+        self.period = period
+        self.follow_goal_tol_m = follow_goal_tol_m
+        self.replan_after_s = replan_after_s
+        self.plan_wait_s = plan_wait_s
+        self._ident = 0
+        self._requested: np.ndarray | None = None  # goal position (3,) [m] of the newest request
+        self._requested_at = -np.inf  # [s]
+        self._answered = True  # the newest request has its outcome
+        self._stream: TrajectoryStreamer | None = None
+        self._plan_goal: np.ndarray | None = None  # goal position (3,) [m] the followed path was planned for
+        self.escape_from: np.ndarray | None = None  # the followed path's start (7,) [rad] when the check refused it
+        self.note = "no plan"  # for the status: what the background planner did last
+        self.plans = {"requested": 0, "followed": 0, "failed": 0, "dropped": 0}
+
+    @property
+    def following(self) -> bool:
+        return self._stream is not None
+
+    @property
+    def waypoint(self) -> str:
+        """The followed path's progress, e.g. "1.2/3.4 s"."""
+        s = self._stream
+        return "" if s is None else f"{s.t:.1f}/{s.duration:.1f} s"
+
+    def waiting(self, now: float) -> bool:
+        """A plan for the current goal was requested less than plan_wait_s ago and has not arrived: hold."""
+        return not self._answered and now - self._requested_at < self.plan_wait_s
+
+    def forget(self) -> None:
+        """Drop the path and forget the requests (a cleared goal, a disabled loop): outcomes still running are
+        ignored when they arrive."""
+        self._stream, self._plan_goal, self._requested = None, None, None
+        self._ident += 1
+        self._answered = True
+
+    def drop(self, reason: str) -> None:
+        """Stop following the path (the loop goes on with local steps)."""
+        if self._stream is not None:
+            self.plans["dropped"] += 1
+            self.note = f"plan dropped: {reason}"
+        self._stream, self._plan_goal = None, None
+
+    def update(self, now: float, q: np.ndarray, goal: Goal, goal_speed: float, stalled_s: float, scene, cloud):
+        """Take up a finished plan and request a new one when it is worth it; once per tick.
+
+        Args:
+            now: time [s]; q: measured state (7,) [rad]; goal: the goal to plan for; goal_speed: its speed [m/s];
+            stalled_s: time [s] since the loop last made progress; scene, cloud: as in PlanRequest.
+        """
+        outcome = self.runner.poll(now)
+        if outcome is not None:
+            self._take(outcome, goal)
+        if goal_speed > STILL_GOAL_MPS or self.runner.busy or self._stream is not None:
+            return
+        new_goal = self._requested is None or np.linalg.norm(goal.position - self._requested) > self.follow_goal_tol_m
+        retry = now - self._requested_at > self.replan_after_s and stalled_s > self.replan_after_s
+        if new_goal or retry:
+            self._ident += 1
+            self._requested, self._requested_at, self._answered = goal.position.copy(), now, False
+            self.plans["requested"] += 1
+            self.runner.submit(PlanRequest(q.copy(), goal, scene, cloud, self._ident), now)
+
+    def _take(self, outcome: PlanOutcome, goal: Goal) -> None:
+        if outcome.request.ident != self._ident:
+            return  # superseded
+        self._answered = True
+        result, planned = outcome.result, outcome.request.goal.position
+        if result is None or not result.success:
+            self.plans["failed"] += 1
+            why = outcome.error if result is None else result.reason
+            self.note = f"background plan failed ({why}); local steps"
+            return
+        if np.linalg.norm(goal.position - planned) > self.follow_goal_tol_m:
+            self.note = "background plan arrived for a goal that has since moved; local steps"
+            return
+        self._stream = TrajectoryStreamer(result.q_path, result.times, period=self.period)
+        self.escape_from = result.q_path[0].copy() if result.info.get("start_refused") else None
+        self._plan_goal = np.asarray(planned, dtype=float).copy()
+        self.plans["followed"] += 1
+        self.note = f"following a plan found in {outcome.wall_s:.2f} s ({len(result.q_path)} waypoints)"
+
+    def command(self, q: np.ndarray, goal: Goal) -> np.ndarray | None:
+        """The next target (7,) [rad] along the followed path (not yet hard-checked against the newest scene), or
+        None when there is none (no path, the goal moved off it, or the path is done)."""
+        if self._stream is None:
+            return None
+        if np.linalg.norm(goal.position - self._plan_goal) > self.follow_goal_tol_m:
+            self.drop("the goal moved")
+            return None
+        target = self._stream.next_command(q)
+        if target is None:
+            self._stream, self._plan_goal = None, None
+            self.note = "plan followed to its end"
+        return target
