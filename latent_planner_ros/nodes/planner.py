@@ -27,15 +27,18 @@ Parameters: PlannerNodeConfig (config/planner.yaml), validated; a bad value is r
 from __future__ import annotations
 
 import sys
+import threading
 import time
-from functools import partial
+from functools import partial, wraps
 
+import numpy as np
 import torch
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, PointCloud2
 from std_srvs.srv import SetBool
@@ -48,13 +51,15 @@ from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
+from latent_planner_ros.perception.frames import path_to_world
 from latent_planner_ros.perception.scene_input import limit_points
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.backends import make_backend
 from latent_planner_ros.planning.closed_loop import ClosedLoopController, TickOutcome
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.lspp import make_lspp
-from latent_planner_ros.planning.planner_modes import PlannerModes
+from latent_planner_ros.planning.plan_runner import PlanRequest, ThreadedPlanRunner, planning_function
+from latent_planner_ros.planning.planner_modes import LSPP, PlannerModes
 from msg_adapters import (
     AdapterError,
     apply_marker_array,
@@ -75,15 +80,33 @@ from sim_bridge.params import ConfigError, from_params
 from sim_bridge.ros_params import ConfigParams
 
 
+def _locked(method):
+    """Run the method under the node's state lock (the control callbacks against ~/plan and parameter swaps)."""
+
+    @wraps(method)
+    def run(self, *args):
+        with self._lock:
+            return method(self, *args)
+
+    return run
+
+
 class PlannerNode(Node):
     def __init__(self):
         super().__init__("planner")
         torch.set_num_threads(1)  # small batches: threads only add contention with the sim and the encoder
+        sys.setswitchinterval(0.001)  # a background plan holds the GIL for at most 1 ms at a time, not 5
+        # the control loop and its inputs in one group; ~/plan in another (it plans while the loop ticks), parameter
+        # rebuilds in the default group; _lock guards the state they share (held briefly, never while planning)
+        self._lock = threading.RLock()
+        self._plan_lock = threading.Lock()  # one plan at a time on the planning instance
+        self._control = MutuallyExclusiveCallbackGroup()
+        self._planning = MutuallyExclusiveCallbackGroup()
         params = ConfigParams(self, PlannerNodeConfig, ranges=RANGES, read_only=READ_ONLY)
         self.config = params.config
         self.frames, self.joint_names = self.config.frames.frames(), self.config.frames.joint_names
         self.vae, _ = load_vae(self.config.vae_checkpoint or None)
-        self.modes = self._make_modes(self.config, self.vae)
+        self.modes, self.plan_planner = self._make_modes(self.config, self.vae)
         params.on_set(self._on_set_parameters)
         self._last_error = ""
         self._last_outcome = TickOutcome(None, "starting", "starting")
@@ -102,32 +125,41 @@ class PlannerNode(Node):
         self.pub_markers = self.create_publisher(MarkerArray, "~/markers", 10)
         self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
         self.pub_plan_result = self.create_publisher(DiagnosticStatus, "~/plan_result", 10)
-        self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
-        self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10)
+        self.pub_diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        group = {"callback_group": self._control}
+        self.create_subscription(JointState, "joint_states", self._on_joint_states, 10, **group)
+        self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10, **group)
         for cloud_topic in self.config.cloud_topics:
-            self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2)
-        self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, 10)
+            self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2, **group)
+        self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, 10, **group)
         if self.config.amp_ls.collision_backend == "learned":
-            self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2)
-        self.create_service(GetPlan, "~/plan", self._on_plan)
-        self.create_service(SetBool, "~/enable", self._on_enable)
-        self._tick_timer = self.create_timer(1.0 / self.config.closed_loop.rate_hz, self._on_tick)
-        self._status_timer = self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)
+            self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2, **group)
+        self.create_service(GetPlan, "~/plan", self._on_plan, callback_group=self._planning)
+        self.create_service(SetBool, "~/enable", self._on_enable, **group)
+        self._tick_timer = self.create_timer(1.0 / self.config.closed_loop.rate_hz, self._on_tick, **group)
+        self._status_timer = self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status, **group)
         self.get_logger().info(
             f"AMP-LS ready: backend {self.config.amp_ls.collision_backend} (LSPP on cylinder obstacles), "
             f"{self.config.closed_loop.rate_hz:.0f} Hz, enabled={self.config.enabled}"
         )
 
-    def _make_modes(self, config: PlannerNodeConfig, vae) -> PlannerModes:
-        """The AMP-LS and LSPP closed loops; CheckpointError for a missing or bad checkpoint."""
-        backend = make_backend(config.amp_ls.collision_backend, config.collision_checkpoint)
+    def _make_modes(self, config: PlannerNodeConfig, vae) -> tuple[PlannerModes, AmpLs]:
+        """The AMP-LS and LSPP closed loops, and the AMP-LS instance that plans (the closed loop's background plans
+        and ~/plan, on a backend of its own); CheckpointError for a missing or bad checkpoint."""
+
+        def amp_ls() -> AmpLs:
+            return AmpLs(vae, make_backend(config.amp_ls.collision_backend, config.collision_checkpoint), config.amp_ls)
+
+        plan_planner, stepping = amp_ls(), amp_ls()
         lspp = make_lspp(vae, config.lspp, config.lspp_checkpoint or None, config.lspp_check)
-        loops = [ClosedLoopController(p, config.closed_loop) for p in (AmpLs(vae, backend, config.amp_ls), lspp)]
-        for loop in loops:
-            loop.planner.warm_up()
-        modes = PlannerModes(*loops)
+        for planner in (stepping, lspp, plan_planner):
+            planner.warm_up()
+        runner = ThreadedPlanRunner(planning_function(plan_planner, self._plan_lock))
+        modes = PlannerModes(
+            ClosedLoopController(stepping, config.closed_loop, runner), ClosedLoopController(lspp, config.closed_loop)
+        )
         modes.set_enabled(config.enabled)
-        return modes
+        return modes, plan_planner
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -149,29 +181,38 @@ class PlannerNode(Node):
                 if config.vae_checkpoint == self.config.vae_checkpoint
                 else load_vae(config.vae_checkpoint or None)[0]
             )
-            modes = self._make_modes(config, vae)
+            modes, plan_planner = self._make_modes(config, vae)  # the slow part, while the loop goes on ticking
         except (ConfigError, ValueError, TypeError, CheckpointError) as err:
             return SetParametersResult(successful=False, reason=str(err))
+        with self._lock:
+            self._swap(config, vae, modes, plan_planner)
+        return SetParametersResult(successful=True)
+
+    def _swap(self, config: PlannerNodeConfig, vae, modes: PlannerModes, plan_planner: AmpLs) -> None:
+        """Take up a rebuilt configuration: the inputs, goal and cylinders carry over."""
         goal, cylinders = self.modes.goal, self.modes.cylinders
         if config.closed_loop.rate_hz != self.config.closed_loop.rate_hz:  # the step size follows the rate
             self._tick_timer = self._replace_timer(self._tick_timer, config.closed_loop.rate_hz, self._on_tick)
         if config.status_rate_hz != self.config.status_rate_hz:
             self._status_timer = self._replace_timer(self._status_timer, config.status_rate_hz, self._publish_status)
-        self.config, self.modes, self.vae = config, modes, vae
+        old_runner = self.modes.amp_ls.follower.runner if self.modes.amp_ls.follower is not None else None
+        self.config, self.modes, self.vae, self.plan_planner = config, modes, vae, plan_planner
+        if old_runner is not None:
+            old_runner.close(timeout_s=0.0)  # its thread ends after the plan it runs; that outcome is dropped
         self.fusion.max_age_s = config.cloud_max_age_s
         if self._last_cloud is not None:
             self._apply_cloud(*self._last_cloud)
         self.modes.set_cylinders(cylinders, self._now())
         if goal is not None:
             self.modes.set_goal(goal, self._now())
-        return SetParametersResult(successful=True)
 
     def _replace_timer(self, timer, rate_hz: float, callback):
         timer.cancel()
         self.destroy_timer(timer)
-        return self.create_timer(1.0 / rate_hz, callback)
+        return self.create_timer(1.0 / rate_hz, callback, callback_group=self._control)
 
     # -- inputs -------------------------------------------------------------------------------------
+    @_locked
     def _on_joint_states(self, msg: JointState) -> None:
         try:
             q, _ = joint_state_to_q(msg, self.joint_names)
@@ -224,6 +265,7 @@ class PlannerNode(Node):
             backend.set_cloud(cloud)
         controller.set_cloud(cloud, received)
 
+    @_locked
     def _on_embedding(self, msg: PointCloud2) -> None:
         try:
             embedding = self.modes.amp_ls.planner.backend.embedding_from_msg(msg)
@@ -232,6 +274,7 @@ class PlannerNode(Node):
             return
         self.modes.amp_ls.set_scene(embedding, self._now())
 
+    @_locked
     def _on_obstacles(self, msg: MarkerArray) -> None:
         """Apply CYLINDER markers to the obstacle set; a refused array leaves the set as it was."""
         cfg = self.config
@@ -258,6 +301,7 @@ class PlannerNode(Node):
         pos_tol = plan_tolerance(tolerance, cfg.pos_tol)
         return Goal(target.position, target.rotation, pos_tol=pos_tol, ori_tol=cfg.ori_tol)
 
+    @_locked
     def _on_goal(self, msg: PoseStamped) -> None:
         try:
             goal = self._goal_from(msg)
@@ -271,14 +315,17 @@ class PlannerNode(Node):
 
     # -- control ------------------------------------------------------------------------------------
     def _on_tick(self) -> None:
-        self._use_latest_cloud()
-        outcome = self.modes.tick(self._now())
-        self._last_outcome = outcome
+        with self._lock:
+            self._use_latest_cloud()
+            outcome = self.modes.tick(self._now())
+            self._last_outcome = outcome
         if outcome.command is not None:
-            self.pub_command.publish(q_to_joint_state(outcome.command, stamp=self.get_clock().now().to_msg()))
+            stamp = self.get_clock().now().to_msg()
+            self.pub_command.publish(q_to_joint_state(outcome.command, names=self.joint_names, stamp=stamp))
 
     def _on_enable(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
-        self.modes.set_enabled(bool(request.data))
+        with self._lock:
+            self.modes.set_enabled(bool(request.data))
         response.success, response.message = True, "enabled" if request.data else "disabled"
         return response
 
@@ -299,26 +346,44 @@ class PlannerNode(Node):
         self.pub_plan_result.publish(plan_result_status(self.get_name(), outcome, reason, stamp, waypoints, *timing))
         return response
 
+    def _plan_inputs(self, request: GetPlan.Request) -> tuple[str, object]:
+        """("", (PlanRequest, planner, lspp)) for a plan, or (reason, None) for a refusal; takes the inputs under
+        the lock, briefly."""
+        with self._lock:
+            controller = self.modes.active
+            q = controller.fresh_joint_state(self._now())
+            if q is None:
+                return "no fresh joint states", None
+            try:
+                goal = self._goal_from(request.goal, float(request.tolerance))
+            except (AdapterError, ValueError) as err:
+                return str(err), None
+            self._use_latest_cloud()
+            ok, reason = self.modes.check_goal(goal)
+            if not ok:
+                return "goal " + reason.removeprefix("goal refused: "), None
+            lspp = self.modes.mode == LSPP
+            planner = controller.planner if lspp else self.plan_planner
+            scene = controller.scene if planner.config.use_collision else None
+            if planner.config.use_collision and scene is None:
+                return "no scene received yet", None
+            return "", (PlanRequest(q, goal, scene, controller.cloud, 0), planner, lspp)
+
     def _plan(self, request: GetPlan.Request, response: GetPlan.Response) -> tuple[str, str, object]:
-        """(outcome, reason, PlanResult or None): SUCCESS fills `response` and publishes the trajectory."""
-        controller = self.modes.active
-        q = controller.fresh_joint_state(self._now())
-        if q is None:
-            return REFUSED, "no fresh joint states", None
-        try:
-            goal = self._goal_from(request.goal, float(request.tolerance))
-        except (AdapterError, ValueError) as err:
-            return REFUSED, str(err), None
-        self._use_latest_cloud()
-        ok, reason = self.modes.check_goal(goal)
-        if not ok:
-            return REFUSED, "goal " + reason.removeprefix("goal refused: "), None
-        planner = controller.planner
-        scene = controller.scene if planner.config.use_collision else None
-        if planner.config.use_collision and scene is None:
-            return REFUSED, "no scene received yet", None
+        """(outcome, reason, PlanResult or None): SUCCESS fills `response` and publishes the trajectory. AMP-LS
+        plans on its planning instance while the closed loop goes on ticking; LSPP plans on the closed loop's
+        own instance, so the loop waits for it (LSPP plans take tens of milliseconds)."""
+        refusal, inputs = self._plan_inputs(request)
+        if inputs is None:
+            return REFUSED, refusal, None
+        plan_request, planner, lspp = inputs
+        goal = plan_request.goal
         t0 = time.perf_counter()
-        result = planner.plan(q, goal, scene)
+        if lspp:
+            with self._lock:
+                result = planner.plan(plan_request.q, goal, plan_request.scene)
+        else:
+            result = planning_function(planner, self._plan_lock)(plan_request)
         self.get_logger().info(
             f"plan ({planner.name}): {'success' if result.success else 'failure'} ({result.reason}) "
             f"in {time.perf_counter() - t0:.3f} s, "
@@ -327,11 +392,15 @@ class PlannerNode(Node):
         if not result.success:
             return FAILED, result.reason, result
         stamp = response.plan.header.stamp
-        response.plan = ee_path_to_path(result.ee_positions, result.ee_quaternions, frame_id="world", stamp=stamp)
-        self.pub_traj.publish(joint_path_to_trajectory(result.q_path, result.times, stamp=stamp))
-        self.pub_markers.publish(path_markers(result.ee_positions, goal.position, stamp))
+        positions, quaternions = path_to_world(self.frames, result.ee_positions, result.ee_quaternions)
+        response.plan = ee_path_to_path(positions, quaternions, frame_id="world", stamp=stamp)
+        trajectory = joint_path_to_trajectory(result.q_path, result.times, names=self.joint_names, stamp=stamp)
+        self.pub_traj.publish(trajectory)
+        goal_world = path_to_world(self.frames, goal.position[None], np.array([[0.0, 0.0, 0.0, 1.0]]))[0][0]
+        self.pub_markers.publish(path_markers(positions, goal_world, stamp))
         return SUCCESS, result.reason, result
 
+    @_locked
     def _publish_status(self) -> None:
         o = self._last_outcome
         points_in, points_used = self._cloud_points
@@ -349,10 +418,11 @@ class PlannerNode(Node):
         stamp = self.get_clock().now().to_msg()
         msg = status_array("planner", o.level, f"{o.state}: {o.reason}", values, self.modes.active.planner.name, stamp)
         self.pub_status.publish(msg)
+        self.pub_diagnostics.publish(msg)
 
 
 def main() -> int:
-    return run_node("planner", PlannerNode, (CheckpointError, ConfigError, ValueError))
+    return run_node("planner", PlannerNode, (CheckpointError, ConfigError, ValueError), threads=3)
 
 
 if __name__ == "__main__":

@@ -207,6 +207,11 @@ class ClosedLoopController:
     def scene(self) -> Any:
         return self._scene
 
+    @property
+    def cloud(self) -> np.ndarray | None:
+        """The latest raw cloud (N, 3) [m], or None."""
+        return self._cloud
+
     def set_goal(self, goal: Goal, now: float) -> tuple[bool, str]:
         """Accept or refuse a goal; returns (accepted, reason)."""
         ok, reason = self.check_goal(goal)
