@@ -30,9 +30,12 @@ TARGET_HALF_RANGE = (0.015, 0.035)
 """[m] half edge of the target cube, drawn uniformly per trial."""
 
 
-def trial_settings(rng: np.random.Generator, base_seed: int, index: int) -> tuple[int, str, dict]:
-    """(sim seed, scenario_overrides YAML, the drawn values) of trial `index`."""
-    speed = float(rng.uniform(*SPEED_RANGE) * rng.choice([-1.0, 1.0]))
+def trial_settings(
+    rng: np.random.Generator, base_seed: int, index: int, max_speed: float = SPEED_RANGE[1]
+) -> tuple[int, str, dict]:
+    """(sim seed, scenario_overrides YAML, the drawn values) of trial `index`; the belt speed is drawn from
+    SPEED_RANGE[0] to max_speed [m/s] (the same draws as before for the default)."""
+    speed = float(rng.uniform(SPEED_RANGE[0], max_speed) * rng.choice([-1.0, 1.0]))
     half = float(rng.uniform(*TARGET_HALF_RANGE))
     mode = str(rng.choice(["wrap", "bounce"]))
     drawn = {"speed": round(speed, 4), "mode": mode, "target_half_extent": round(half, 4)}
@@ -151,6 +154,13 @@ def figures(tracks: list, rows: list[dict], ticks: list[np.ndarray], rule_tol_m:
 def main(argv: list[str]) -> int:
     p = bench_parser("conveyor", __doc__.split("\n\n")[0])
     p.add_argument("--trials", type=int, default=10, help="number of trials (default 10)")
+    p.add_argument(
+        "--max-belt-speed",
+        type=float,
+        default=SPEED_RANGE[1],
+        metavar="V",
+        help=f"each trial's belt speed is drawn from {SPEED_RANGE[0]} m/s up to this [m/s] (default {SPEED_RANGE[1]})",
+    )
     p.add_argument("--trial-duration", type=float, default=15.0, metavar="S", help="simulated s per trial (15)")
     p.add_argument("--seed", type=int, default=0, help="seed of the randomisation (default 0)")
     p.add_argument("--real-time-factor", type=float, default=1.0, metavar="F", help="sim pace (default 1)")
@@ -171,6 +181,8 @@ def main(argv: list[str]) -> int:
         "closed_loop.goal_lead_s=0.5",
     )
     args = p.parse_args(argv)
+    if not SPEED_RANGE[0] <= args.max_belt_speed <= 1.0:
+        p.error(f"--max-belt-speed must lie in [{SPEED_RANGE[0]}, 1.0] m/s, got {args.max_belt_speed}")
     if args.trials < 1 or args.trial_duration <= 0 or not 0.1 <= args.real_time_factor <= 10:
         p.error("--trials >= 1, --trial-duration > 0 and --real-time-factor in [0.1, 10] are required")
     try:
@@ -198,7 +210,7 @@ def main(argv: list[str]) -> int:
         with ConveyorSuite(plan, log_path=log_path, domain_id=args.domain_id) as suite:
             up_s = suite.start()
             print(f"[bench conveyor] {', '.join(plan.nodes)} up after {up_s:.1f} s", file=sys.stderr)
-            draws = [trial_settings(rng, args.seed, i) for i in range(max(indices) + 1)]
+            draws = [trial_settings(rng, args.seed, i, args.max_belt_speed) for i in range(max(indices) + 1)]
             for n, i in enumerate(indices):
                 seed, overrides, drawn = draws[i]
                 log = suite.run_trial(args.trial_duration, seed=seed, overrides=overrides)
@@ -235,7 +247,7 @@ def main(argv: list[str]) -> int:
         planner_set=list(args.planner_set),
         rule={"pos_tol_m": rule.pos_tol_m, "ori_tol_deg": rule.ori_tol_deg, "hold_s": rule.hold_s},
         randomisation={
-            "speed_m_s": list(SPEED_RANGE),
+            "speed_m_s": [SPEED_RANGE[0], args.max_belt_speed],
             "target_half_extent_m": list(TARGET_HALF_RANGE),
             "mode": ["wrap", "bounce"],
             "seed": "obstacle size and place, target start (sim generator)",

@@ -361,7 +361,7 @@ class ClosedLoopController:
                     self._best_err, self._best_time = min(pos_err, self._best_err), now
                     values = {"pos_err_m": pos_err, "arm_pos_err_m": pos_err, "ori_err_deg": float(np.degrees(ori_err))}
                     return TickOutcome(hold, "reached", "reached", OK, {**values, "command_source": "hold"})
-            if f.waiting(now):
+            if f.waiting(now) and speed <= STILL_GOAL_MPS:  # a goal seen moving is chased at once
                 self._best_time = now  # waiting for a plan is not a lack of progress
                 values = {"command_source": "wait", "plan_note": f.note}
                 return TickOutcome(hold, "holding", "holding: waiting for the background plan", OK, values)

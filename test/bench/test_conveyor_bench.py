@@ -28,6 +28,16 @@ def test_trial_settings_are_reproducible_and_load_as_scenarios():
         scenario = load_scenario("conveyor", seed=seed, overrides=parse_overrides(overrides))
         assert scenario.object("target").half_extents[0] == pytest.approx(drawn["target_half_extent"], abs=1e-4)
     assert len({s for s, _, _ in b}) == 5
+    fast = [trial_settings(np.random.default_rng(7), 7, i, max_speed=0.15)[2]["speed"] for i in range(1)]
+    assert SPEED_RANGE[0] <= abs(fast[0]) <= 0.15 and abs(fast[0]) != abs(a[0][2]["speed"])
+
+
+def test_max_belt_speed_out_of_range_is_refused(tmp_path, capsys):
+    from latent_planner_ros.bench.conveyor import main
+
+    with pytest.raises(SystemExit):
+        main(["--out", str(tmp_path), "--max-belt-speed", "2.0"])
+    assert "--max-belt-speed must lie in" in capsys.readouterr().err
 
 
 def _row(success: bool, collided: bool = False, reach: float | None = 4.0) -> dict:
