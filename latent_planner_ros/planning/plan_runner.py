@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.goal_reachability import refused_result, unreachable_reason
 from latent_planner_ros.planning.result import PlanResult
 
 
@@ -49,13 +50,18 @@ class PlanOutcome:
 PlanFn = Callable[[PlanRequest], PlanResult]
 
 
-def planning_function(planner: Any, lock: threading.Lock | None = None) -> PlanFn:
-    """plan_fn for `planner` (AmpLs or an LSPP planner): hands the raw cloud to a backend that hard-checks
-    against it (learned), then plans; under `lock` when given."""
+def planning_function(planner: Any, lock: threading.Lock | None = None, reachability: bool = True) -> PlanFn:
+    """plan_fn for `planner` (AmpLs or an LSPP planner): with `reachability`, a goal no self- and table-collision-
+    free IK solution takes is answered at once (planning/goal_reachability.py, reason "unreachable: ..."); else
+    hands the raw cloud to a backend that hard-checks against it (learned) and plans; under `lock` when given."""
     lock = lock or threading.Lock()
 
     def plan(request: PlanRequest) -> PlanResult:
         with lock:
+            t0 = time.perf_counter()
+            why = unreachable_reason(planner.panda, planner.checker, request.goal, request.q) if reachability else ""
+            if why:
+                return refused_result(planner.panda, request.q, request.goal, f"unreachable: {why}", t0)
             backend = getattr(planner, "backend", None)
             if request.cloud is not None and hasattr(backend, "set_cloud"):
                 backend.set_cloud(request.cloud)

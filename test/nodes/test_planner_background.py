@@ -1,5 +1,6 @@
 """The planner node keeps ticking while it plans: a static goal behind an obstacle reached by following a
-background plan, a goal changed while its plan runs, the longest gap between commands during a long ~/plan."""
+background plan, a goal changed while its plan runs, an unreachable goal answered at once, the longest gap
+between commands during a long ~/plan."""
 
 from __future__ import annotations
 
@@ -75,13 +76,28 @@ out["reached"] = bool(spin_until(lambda: reached(state["q"], problem)[0], 30.0))
 out["reach_s"] = time.monotonic() - t0
 out["sources"] = sorted(state["sources"])
 
-# a long one-shot plan (a goal 5 cm below the table top: every pose collides) while the loop ticks
+# an unreachable goal (5 cm below the table top) is answered at once, with the reason
+t_call = time.monotonic()
+future = client.call_async(GetPlan.Request(goal=pose([0.55, 0.25, -0.05], np.diag([1.0, -1.0, -1.0]))))
+spin_until(lambda: future.done(), 60.0)
+out["unreachable_s"], out["unreachable_len"] = time.monotonic() - t_call, len(future.result().plan.poses)
+
+# a long one-shot plan while the loop ticks: a goal inside a closed box of observed points (no way in)
+centre = np.array([0.5, -0.35, 0.35])
+grid = np.linspace(-0.1, 0.1, 21)
+a, b = np.meshgrid(grid, grid)
+faces = []
+for axis in range(3):
+    for side in (-0.1, 0.1):
+        face = np.insert(np.stack([a.ravel(), b.ravel()], 1), axis, side, axis=1)
+        faces.append(face)
+problem.cloud = np.concatenate([problem.cloud, centre + np.concatenate(faces)])
+spin_until(lambda: False, 0.5)  # the boxed cloud reaches the planner
 n = len(state["times"])
-low = pose([0.55, 0.25, -0.05], np.diag([1.0, -1.0, -1.0]))
-future = client.call_async(GetPlan.Request(goal=low))
+future = client.call_async(GetPlan.Request(goal=pose(centre, np.diag([1.0, -1.0, -1.0]))))
 t_call = time.monotonic()
 spin_until(lambda: future.done(), 60.0)
-out["plan_s"] = time.monotonic() - t_call
+out["plan_s"], out["plan_len"] = time.monotonic() - t_call, len(future.result().plan.poses)
 times = state["times"][n:]
 out["commands_during_plan"] = len(times)
 out["longest_gap_s"] = float(np.max(np.diff([t_call, *times, time.monotonic()])))
@@ -105,7 +121,9 @@ def test_planner_node_follows_background_plans_and_keeps_ticking_while_it_plans(
     assert line, f"probe failed:\n{probe.stdout}\n{probe.stderr[-3000:]}\n{logs}"
     out = json.loads(line[len("RESULT ") :])
     assert out["reached"] and "plan" in out["sources"], (out, logs[-3000:])
-    assert out["plan_s"] > 1.0, out  # a plan long enough to show the loop ticking through it
+    assert out["unreachable_len"] == 0 and out["unreachable_s"] < 1.0, out  # not the 6.6 s of "no progress"
+    assert "unreachable: no valid IK solution" in logs and "table collision" in logs, logs[-3000:]
+    assert out["plan_len"] == 0 and out["plan_s"] > 1.0, out  # a plan long enough to show the loop ticking
     # 10 Hz on: before the planner ticked on its own thread, an 11.5 s plan left an 11.6 s gap (the probe shares
     # the CPU with the node, so allow a few periods of scheduling noise)
     assert out["longest_gap_s"] < 0.5 and out["commands_during_plan"] >= 0.7 * 10 * out["plan_s"], out
