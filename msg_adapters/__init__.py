@@ -16,7 +16,13 @@ from msg_adapters.plan_request import plan_result_status, plan_tolerance
 from msg_adapters.point_cloud import cloud_to_fields, cloud_to_xyz, feature_names, xyz_to_cloud
 from msg_adapters.pose import PoseTarget, pose_stamped_to_target, target_to_pose_stamped
 from msg_adapters.scene_embedding import cloud_to_embedding, embedding_to_cloud
-from msg_adapters.trajectory import ee_path_to_path, joint_path_to_trajectory, path_to_arrays, trajectory_to_arrays
+from msg_adapters.trajectory import (
+    ee_path_to_path,
+    joint_path_to_trajectory,
+    path_to_arrays,
+    trajectory_to_arrays,
+    trajectory_to_execution,
+)
 
 __all__ = [
     "AdapterError",
@@ -41,5 +47,6 @@ __all__ = [
     "status_array",
     "target_to_pose_stamped",
     "trajectory_to_arrays",
+    "trajectory_to_execution",
     "xyz_to_cloud",
 ]

@@ -7,7 +7,10 @@ penetrating, capped at ``sim.DISTANCE_CUTOFF_M``), for each depth camera ``<name
 ``<name>/points`` and its optical centre and orientation on ``<name>/pose`` (with the cloud's stamp; the
 default single camera ``camera``: ``camera/points`` and ``camera/pose``; sim_bridge/camera_rig.py), and
 ``target_pose`` (12.5 Hz); subscribes
-``joint_command``; serves ``sim/reset``. Rates are in simulated time; stamps are simulated time (run
+``joint_trajectory`` (trajectory_msgs/JointTrajectory, executed as a JointTrajectoryController does: from the
+header stamp, 0 = on receipt, replacing the current trajectory from the commanded state; remappable) and
+``joint_command`` (sensor_msgs/JointState position targets, refused while a trajectory runs: one source at a
+time, see sim_bridge/sim.py); serves ``sim/reset``. Rates are in simulated time; stamps are simulated time (run
 other nodes with ``use_sim_time:=true``). Parameters: :class:`~sim_bridge.sim_config.SimConfig` (see
 ``config/sim.yaml``) and, for every listed camera other than ``camera``, ``<name>.*`` (CameraConfig, each
 defaulting to the ``camera.*`` value); they take effect at the next ``sim/reset``, except ``real_time_factor``
@@ -37,9 +40,17 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Bool, Float64
 from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory
 
 from latent_planner_ros.robot.limits import JOINT_NAMES
-from msg_adapters import AdapterError, joint_state_to_q, q_to_joint_state, target_to_pose_stamped, xyz_to_cloud
+from msg_adapters import (
+    AdapterError,
+    joint_state_to_q,
+    q_to_joint_state,
+    target_to_pose_stamped,
+    trajectory_to_execution,
+    xyz_to_cloud,
+)
 from sim_bridge.camera_config import CameraConfig
 from sim_bridge.camera_rig import DEFAULT_CAMERA, camera_from_params, camera_params
 from sim_bridge.mjcf import DEPTH_CAMERA, OVERVIEW_CAMERA
@@ -50,7 +61,7 @@ from sim_bridge.ros_params import ConfigParams, descriptor
 from sim_bridge.runner import Runner, Tick
 from sim_bridge.scenario import Scenario, ScenarioError
 from sim_bridge.scenario_files import load_scenario, parse_overrides
-from sim_bridge.sim import Sim
+from sim_bridge.sim import TRAJECTORY, Sim
 from sim_bridge.sim_config import SimConfig
 from sim_bridge.sim_ranges import SIM_RANGES, SIM_READ_ONLY
 
@@ -101,6 +112,8 @@ class SimNode(Node):
         self._pub_target = self.create_publisher(PoseStamped, "target_pose", 10)
         self._pub_distance = self.create_publisher(Float64, "sim/min_distance", 10)
         self.create_subscription(JointState, "joint_command", self._on_command, 10)
+        self.create_subscription(JointTrajectory, "joint_trajectory", self._on_trajectory, 10)
+        self._source = self.sim.source  # the command source last logged
         self.create_service(Trigger, "sim/reset", self._on_reset)
         self._was_colliding = False
         self._warned: set[str] = set()
@@ -161,11 +174,33 @@ class SimNode(Node):
         except AdapterError as err:
             self.get_logger().warning(f"joint_command refused: {err}", throttle_duration_sec=1.0)
             return
+        if self.sim.trajectory_running():  # expected while a planner sends both; not worth a warning
+            self.get_logger().debug("joint_command ignored: a joint_trajectory is being executed")
+            return
         result = self.sim.set_command(q)
+        self._log_source()
         if not result.accepted:
             self.get_logger().warning(f"joint_command refused: {result.reason}", throttle_duration_sec=1.0)
         elif result.clamped:
             self.get_logger().warning(f"joint_command {result.reason}", throttle_duration_sec=1.0)
+
+    def _on_trajectory(self, msg: JointTrajectory) -> None:
+        try:
+            times, q, dq, ddq = trajectory_to_execution(msg, JOINT_NAMES)
+        except AdapterError as err:
+            self.get_logger().warning(f"joint_trajectory refused: {err}", throttle_duration_sec=1.0)
+            return
+        stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9  # 0: now
+        reason = self.sim.set_trajectory(times, q, dq, ddq, stamp=stamp)
+        if reason:
+            self.get_logger().warning(f"joint_trajectory refused: {reason}", throttle_duration_sec=1.0)
+        self._log_source()
+
+    def _log_source(self) -> None:
+        if self.sim.source != self._source:
+            self._source = self.sim.source
+            topic = "joint_trajectory" if self._source == TRAJECTORY else "joint_command"
+            self.get_logger().info(f"command source: {topic}")
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         previous = self.sim.config
@@ -178,6 +213,7 @@ class SimNode(Node):
             response.success, response.message = False, str(err)
             return response
         self._was_colliding = False
+        self._source = self.sim.source
         self._describe()
         response.success, response.message = True, f"reset to scenario {scenario.name!r}: {scenario.description}"
         return response

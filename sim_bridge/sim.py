@@ -1,13 +1,19 @@
 """The simulator core: the Panda on its table in a scenario, stepped by MuJoCo. No ROS.
 
     sim = Sim(load_scenario("tabletop", seed=0))
-    sim.set_command(q_target)          # (7,) rad, validated and clamped
+    sim.set_command(q_target)          # (7,) rad, validated and clamped (a position target)
+    sim.set_trajectory(t, q, dq, ddq)  # or a trajectory, followed as a JointTrajectoryController does
     sim.step(50)                       # 50 physics steps (0.1 s at the default 2 ms)
     state = sim.get_state()            # time, q, dq, end-effector pose
     cloud = sim.point_cloud()          # (N, 3) float32 in world, robot removed (the first camera's)
     clouds = {n: sim.point_cloud(n) for n in sim.camera_names}  # every depth camera's
     sim.in_collision()                 # arm/hand touching an object or the table now
     sim.nearest_object()               # (distance [m], name): the arm's clearance to the scenario objects
+
+One command source at a time: a trajectory takes the arm over as it arrives (from the current setpoint) and
+position targets are refused while it runs (from its receipt to its end); after it ends, the next position
+target takes over from where it holds. (A planner that publishes both, its trajectory segments and the targets
+they end at, is therefore executed through its trajectories.)
 
 Not thread-safe: use it from one thread (the camera's OpenGL context belongs to the capturing thread).
 """
@@ -28,6 +34,10 @@ from sim_bridge.command import CommandResult, JointCommand
 from sim_bridge.mjcf import DEPTH_CAMERA, OBJECT_PREFIX, TCP_SITE, build_scene, extra_camera_name
 from sim_bridge.scenario import Scenario
 from sim_bridge.sim_config import SimConfig
+from sim_bridge.trajectory_follower import TrajectoryFollower
+
+POSITION, TRAJECTORY = "position", "trajectory"
+"""The command sources of :class:`Sim`: position targets (set_command) and trajectories (set_trajectory)."""
 
 DISTANCE_CUTOFF_M = 0.5
 """[m] :meth:`Sim.nearest_object` reports distances up to this bound (farther objects: the cutoff)."""
@@ -99,6 +109,9 @@ class Sim:
         self.command = JointCommand(
             q0, self.config.command_period, self.config.command_timeout, self.config.velocity_scale
         )
+        self.follower = TrajectoryFollower(q0)
+        self.source = POSITION
+        """the command source that owns the setpoint: POSITION (set_command) or TRAJECTORY (set_trajectory)"""
         self._tcp = self.model.site(TCP_SITE).id
         self._place_moving_objects()
         mujoco.mj_forward(self.model, self.data)
@@ -119,15 +132,51 @@ class Sim:
 
     # ------------------------------------------------------------------ commands and stepping
     def set_command(self, q: np.ndarray) -> CommandResult:
-        """New joint position target q (7,) [rad]: NaN/inf refused, out-of-limit joints clamped."""
+        """New joint position target q (7,) [rad]: NaN/inf refused, out-of-limit joints clamped; refused while a
+        trajectory runs."""
+        if self.trajectory_running():
+            return CommandResult(False, reason="a trajectory is being executed (trajectories have precedence)")
+        self.source = POSITION
         return self.command.set(q, self.data.time)
+
+    def set_trajectory(
+        self,
+        times: np.ndarray,
+        positions: np.ndarray,
+        velocities: np.ndarray | None = None,
+        accelerations: np.ndarray | None = None,
+        stamp: float = 0.0,
+    ) -> str:
+        """Follow a trajectory from its start time as a JointTrajectoryController does (TrajectoryFollower: it
+        replaces the current one at its start, from the commanded state; the arm holds its last point after the
+        end); '' when accepted, else why it was refused (the arm keeps its current command).
+
+        Args:
+            times: (K,) time from start [s], >= 0, strictly increasing.
+            positions: (K, 7) [rad]; velocities (K, 7) [rad/s] and accelerations (K, 7) [rad/s^2] or None.
+            stamp: start time [s] in sim time; 0 means now.
+        """
+        if self.source == POSITION:
+            self.follower.hold(self.command.setpoint)  # taken over from the position setpoint, at rest
+        reason = self.follower.set_trajectory(times, positions, velocities, accelerations, stamp, self.data.time)
+        if not reason:
+            self.source = TRAJECTORY
+        return reason
+
+    def trajectory_running(self) -> bool:
+        """True from the receipt of a trajectory to its end (position targets are refused meanwhile)."""
+        return self.source == TRAJECTORY and self.data.time < self.follower.end_time()
 
     def step(self, n: int = 1) -> None:
         """Advance n physics steps: setpoint, moving objects, dynamics; contacts are latched for
         :meth:`collided_since_last_check`."""
         dt = self.model.opt.timestep
         for _ in range(n):
-            self.data.ctrl[:7] = self.command.advance(self.data.time, dt)
+            if self.source == TRAJECTORY:
+                self.command.reset(self.follower.sample(self.data.time)[0])  # the setpoint follows the trajectory
+                self.data.ctrl[:7] = self.command.setpoint
+            else:
+                self.data.ctrl[:7] = self.command.advance(self.data.time, dt)
             mujoco.mj_step(self.model, self.data)
             self._place_moving_objects()
             if not self._touched and self.data.ncon:

@@ -22,9 +22,14 @@ class TrajectoryFollower:
     """
 
     def __init__(self, q0: np.ndarray):
-        self._hold = np.asarray(q0, dtype=float).copy()
-        self._active: tuple[float, list[BPoly]] | None = None  # (start time [s], per-joint splines)
         self._last_time = -np.inf  # of the last sample [s]
+        self.hold(q0)
+
+    def hold(self, q: np.ndarray) -> None:
+        """Drop the current and any queued trajectory and hold q (7,) [rad] at rest (e.g. when another command
+        source hands the arm over)."""
+        self._hold = np.asarray(q, dtype=float).copy()
+        self._active: tuple[float, BPoly] | None = None  # (start time [s], the (7,)-valued spline)
         self._pending: tuple[float, np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None] | None = None
 
     def set_trajectory(
@@ -66,11 +71,11 @@ class TrajectoryFollower:
         self._last_time = time
         if self._active is None:
             return self._hold.copy(), np.zeros(7)
-        start, splines = self._active
-        end = splines[0].x[-1]
+        spline = self._active[1]
+        end = spline.x[-1]
         if time >= end:
-            return np.array([s(end) for s in splines]), np.zeros(7)
-        return np.array([s(time) for s in splines]), np.array([s(time, 1) for s in splines])
+            return spline(end), np.zeros(7)
+        return spline(time), spline(time, 1)
 
     def _activate(self, time: float) -> None:
         start, t, q, dq, ddq = self._pending
@@ -89,11 +94,18 @@ class TrajectoryFollower:
         if len(abs_t) == 1:  # the last point is exactly now
             abs_t, knots = np.array([time, time + 1e-9]), np.stack([knots[0], knots[0]])
         splines = [BPoly.from_derivatives(abs_t, knots[:, :, j]) for j in range(7)]
-        self._active = (start, splines)
-        self._hold = np.array([s(abs_t[-1]) for s in splines])
+        spline = BPoly(np.stack([s.c for s in splines], axis=-1), abs_t)  # one (7,)-valued spline: one call a step
+        self._active = (start, spline)
+        self._hold = spline(abs_t[-1])
 
     def acceleration(self, time: float) -> np.ndarray:
         """Acceleration target (7,) [rad/s^2] of the active trajectory at sim time [s] (zero when holding)."""
-        if self._active is None or time >= self._active[1][0].x[-1]:
+        if self._active is None or time >= self._active[1].x[-1]:
             return np.zeros(7)
-        return np.array([s(time, 2) for s in self._active[1]])
+        return self._active[1](time, 2)
+
+    def end_time(self) -> float:
+        """Sim time [s] at which the latest accepted trajectory (queued or active) ends; -inf before any."""
+        if self._pending is not None:
+            return self._pending[0] + float(self._pending[1][-1])
+        return float(self._active[1].x[-1]) if self._active is not None else -np.inf

@@ -1,0 +1,54 @@
+"""The sim's two command sources: trajectories followed as a JointTrajectoryController does, position targets
+refused while a trajectory runs and taking over after its end."""
+
+import numpy as np
+
+from latent_planner_ros.planning.motion_limits import MotionLimits
+from latent_planner_ros.planning.time_parameterisation import jerk_limited_trajectory
+from latent_planner_ros.robot.limits import Q_READY
+from sim_bridge.sim import POSITION, TRAJECTORY
+
+
+def test_a_jerk_limited_trajectory_is_followed_to_its_end_and_held(make_sim):
+    sim = make_sim("empty")
+    goal = Q_READY + np.array([0.4, -0.2, 0.3, 0.3, -0.2, 0.3, 0.4])
+    traj = jerk_limited_trajectory(np.stack([Q_READY, goal]), MotionLimits())
+    assert sim.set_trajectory(traj.times, traj.positions, traj.velocities, traj.accelerations) == ""
+    assert sim.source == TRAJECTORY and sim.trajectory_running()
+    half = int(round(traj.duration / 2 / sim.model.opt.timestep))
+    sim.step(half)
+    expected = traj.positions[np.searchsorted(traj.times, sim.data.time)]
+    np.testing.assert_allclose(sim.get_state().setpoint, expected, atol=0.02)
+    sim.step(int(round(traj.duration / sim.model.opt.timestep)))  # past the end: held there
+    assert not sim.trajectory_running()
+    np.testing.assert_allclose(sim.get_state().setpoint, goal, atol=1e-9)
+    sim.step(250)
+    np.testing.assert_allclose(sim.get_state().q, goal, atol=0.01)
+
+
+def test_position_targets_are_refused_while_a_trajectory_runs_then_take_over(make_sim):
+    sim = make_sim("empty")
+    target = Q_READY + 0.1
+    assert sim.set_trajectory([0.5], [target]) == ""
+    sim.step(50)
+    result = sim.set_command(Q_READY)
+    assert not result.accepted and "trajectory" in result.reason
+    sim.step(250)  # 0.6 s: the trajectory has ended
+    assert sim.set_command(Q_READY).accepted and sim.source == POSITION
+    sim.step(1)
+    assert np.all(np.abs(sim.get_state().setpoint - target) < 0.01)  # from where the trajectory left the arm
+    sim.step(500)
+    np.testing.assert_allclose(sim.get_state().setpoint, Q_READY, atol=1e-9)
+
+
+def test_a_trajectory_takes_over_from_the_position_setpoint(make_sim):
+    sim = make_sim("empty")
+    assert sim.set_command(Q_READY + 0.2).accepted
+    sim.step(25)  # halfway along the linear approach
+    setpoint = sim.get_state().setpoint.copy()
+    assert sim.set_trajectory([1.0], [Q_READY]) == ""
+    sim.step(1)
+    np.testing.assert_allclose(sim.get_state().setpoint, setpoint, atol=0.01)
+    assert sim.set_trajectory([0.1, 0.05], [Q_READY, Q_READY]) != ""  # refused: the arm keeps the first one
+    sim.step(600)
+    np.testing.assert_allclose(sim.get_state().setpoint, Q_READY, atol=1e-9)
