@@ -286,7 +286,7 @@ class ClosedLoopController:
             return TickOutcome(None, "holding", f"no command: joint states {age}", ERROR)
         hold = np.clip(self._q, Q_MIN, Q_MAX)
         if self.goal is None:
-            return self._evasion(now, {}, fresh_cloud=True) or TickOutcome(hold, "holding", "holding: no goal")
+            return self._evasion(now, {}, fresh_cloud=True) or TickOutcome(None, "idle", "idle: no goal, no command")
         if self._failed is not None:
             return self._evasion(now, {}, fresh_cloud=True) or TickOutcome(hold, "failed", self._failed, ERROR)
         use_scene = self.planner.config.use_collision

@@ -39,7 +39,9 @@ def test_holds_are_commanded_inside_the_limits(shipped_vae):
     q = Q_READY.copy()
     q[5] = Q_MIN[5] - 0.5 * MEASURED_LIMIT_TOL_RAD  # slightly outside: plausible, accepted
     assert c.set_joint_state(q, 0.0)[0]
-    out = c.tick(0.1)  # no goal: hold
+    assert c.tick(0.1).command is None  # no goal: no command
+    assert c.set_goal(_goal([0.3, 0, 0, 0, 0, 0, 0]), 0.1)[0]
+    out = c.tick(0.2)  # no scene yet: hold
     assert out.state == "holding" and out.command[5] == Q_MIN[5]
     assert np.all(np.abs(out.command - q) <= V_MAX * 0.1)
 

@@ -99,7 +99,7 @@ def test_an_arm_holding_without_a_goal_evades_too_but_not_on_a_stale_cloud():
     _run(stale, approaching, goal=False)
     stale.set_joint_state(Q_READY, 1.1)  # the last cloud is 0.7 s old
     out = stale.tick(1.1)
-    assert out.state == "holding" and "no goal" in out.reason and np.array_equal(out.command, Q_READY)
+    assert out.state == "idle" and "no goal" in out.reason and out.command is None
 
 
 class _StepPlanner(_BlockedPlanner):

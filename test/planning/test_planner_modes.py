@@ -89,7 +89,7 @@ def test_goal_inside_a_cylinder_is_refused_or_dropped():
     reason = m.set_cylinders(np.array([[0.5, 0.2, 0.5, 0.05]]), 1.0)
     assert "inside cylinder obstacle 0" in reason and m.goal is None and m.lspp.goal is None
     m.set_joint_state(Q_READY, 1.0)
-    assert m.tick(1.1).reason == "holding: no goal"
+    assert m.tick(1.1).reason == "idle: no goal, no command"
 
 
 def test_malformed_cylinders_change_nothing():
