@@ -1,7 +1,9 @@
 """Geometric collision backend: the arm as spheres against the observed point cloud.
 
-The differentiable cost samples a Euclidean distance field of the cloud (voxel grid, trilinear
-interpolation); the hard check is exact (ball_query.py: an occupancy prefilter, then a KD-tree), so no checked
+The differentiable cost is each sphere's clearance to its nearest observed point (`distance: nearest`, a KD-tree
+query per step, exact, up to `cost_range`), or samples a Euclidean distance field of the cloud (`distance:
+field`: voxel grid, trilinear interpolation; a field over the arm's whole reach costs tens of ms per scene); the
+hard check is exact (ball_query.py: an occupancy prefilter, then a KD-tree), so no checked
 state has an observed point inside any of the arm's (conservative) spheres, or, with `exact_margin`, no observed
 point inside a sphere and within that margin of the link's convex hull: the spheres find the candidates, the
 hulls decide.
@@ -31,6 +33,12 @@ class GeometricBackendConfig:
     """lower corner of the distance field [m]"""
     bounds_max: tuple[float, float, float] = (1.0, 1.0, 1.3)
     """upper corner of the distance field [m]"""
+    distance: str = "nearest"
+    """the cost's clearance: "nearest" (to the nearest observed point, a KD-tree query) or "field" (a distance
+    field of `resolution` over the bounds, computed per scene)"""
+    cost_range: float = 0.15
+    """[m] "nearest": clearances beyond this count as this (the cost is flat there: sigmoid((margin - 0.15) /
+    temperature) < 1e-6)"""
     margin: float = 0.01
     """clearance [m] below which the cost starts to rise"""
     temperature: float = 0.01
@@ -42,6 +50,12 @@ class GeometricBackendConfig:
     is refused only if one of those points also lies within this distance [m] of the convex hull of the link's
     collision geometry (robot/link_hulls.py), so that the spheres' slack does not close gaps of 1-2 cm (goals in
     a shelf slot or a bin)"""
+
+    def __post_init__(self) -> None:
+        if self.distance not in ("nearest", "field"):
+            raise ValueError(f"distance must be 'nearest' or 'field', got {self.distance!r}")
+        if not self.cost_range > 0:
+            raise ValueError(f"cost_range must be positive, got {self.cost_range!r}")
 
 
 class GeometricBackend:
@@ -81,6 +95,8 @@ class GeometricBackend:
         """Use cloud (N, 3) [m] for both the cost (distance field) and the hard check (origin, (3,) or (N, 3) per
         point, is not used: only observed points are obstacles here)."""
         cloud = self.set_check_cloud(cloud)
+        if self.config.distance == "nearest":
+            return
         res = self.config.resolution
         shape = np.ceil((self._hi - self._lo) / res).astype(int) + 1
         occ = np.zeros(shape, dtype=bool)
@@ -101,11 +117,29 @@ class GeometricBackend:
     def clearance(self, q: torch.Tensor) -> torch.Tensor:
         """Distance-field clearance [m] of every moving sphere, (B, S) (negative = penetrating)."""
         c = self._centres(q)
+        if self.config.distance == "nearest":
+            return self._nearest_clearance(c)
         lo = torch.as_tensor(self._lo, dtype=c.dtype)
         hi = torch.as_tensor(self._hi, dtype=c.dtype)
         grid = (2.0 * (c - lo) / (hi - lo) - 1.0).view(1, c.shape[0], c.shape[1], 1, 3)
         d = F.grid_sample(self._field, grid, mode="bilinear", padding_mode="border", align_corners=True)
         return d.view(c.shape[0], c.shape[1]) - self._radius
+
+    def _nearest_clearance(self, c: torch.Tensor) -> torch.Tensor:
+        """Clearance (B, S) [m] of spheres centred at c (B, S, 3) [m] to their nearest observed point (at most
+        cost_range); differentiable in c (the nearest point is held fixed)."""
+        far = self.config.cost_range
+        if not len(self.cloud):
+            return torch.full(c.shape[:2], far, dtype=c.dtype) - self._radius
+        flat = c.detach().reshape(-1, 3).numpy().astype(float)
+        dist, idx = self._balls._kdtree().query(flat, distance_upper_bound=far)
+        near = np.isfinite(dist)
+        nearest = np.zeros_like(flat)
+        nearest[near] = self.cloud[idx[near]]
+        diff = c - torch.as_tensor(nearest, dtype=c.dtype).view_as(c)
+        d = torch.sqrt((diff * diff).sum(-1) + 1e-12)
+        d = torch.where(torch.as_tensor(near).view(c.shape[:2]), d, torch.full_like(d, far))
+        return d - self._radius
 
     def p_collision(self, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
         cfg = self.config

@@ -8,7 +8,7 @@ from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.collision_backend import NoCollision
 from latent_planner_ros.planning.escape import GOAL_SLACK, RrtEscape, goal_states
-from latent_planner_ros.planning.geometric_backend import GeometricBackend
+from latent_planner_ros.planning.geometric_backend import GeometricBackend, GeometricBackendConfig
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.ompl_baseline import seed_ompl
 from latent_planner_ros.planning.time_parameterisation import interpolate
@@ -101,11 +101,12 @@ def test_the_escape_reaches_a_goal_behind_a_wall_where_the_latent_search_stalls(
     goal = _goal_of(GOAL_Q)
     wall = _wall(goal)
     base = dict(collision_backend="geometric", rrt_escape_after_s=60.0)  # the escape starts once all seeds stall
-    stalled = AmpLs(shipped_vae, GeometricBackend(), AmpLsConfig(**base, rrt_escape_budget_s=0.0)).plan(
+    field = GeometricBackendConfig(distance="field")  # the distance-field cost stalls here (the nearest-point one not)
+    stalled = AmpLs(shipped_vae, GeometricBackend(field), AmpLsConfig(**base, rrt_escape_budget_s=0.0)).plan(
         Q_READY, goal, wall
     )
     assert not stalled.success and stalled.reason == "no progress" and stalled.info["escape"] == ""
-    planner = AmpLs(shipped_vae, GeometricBackend(), AmpLsConfig(**base))
+    planner = AmpLs(shipped_vae, GeometricBackend(field), AmpLsConfig(**base))
     result = planner.plan(Q_READY, goal, wall)
     assert result.success, result.reason
     assert result.reason == "reached (escape: rrt)" and result.info["escape"] == "escape: rrt"
