@@ -1,7 +1,7 @@
 """``python -m latent_planner_ros launch``: start the node suite as processes, without ``ros2 launch``.
 
-    python -m latent_planner_ros launch [--scenario NAME|FILE] [--with-ompl] [--headless] [--domain-id N]
-        [--nodes a,b,c] [--duration S] [--param NODE:NAME:=VALUE ...] [--startup-timeout S]
+    python -m latent_planner_ros launch [--scenario NAME|FILE] [--with-ompl] [--execute NODE] [--headless]
+        [--domain-id N] [--nodes a,b,c] [--duration S] [--param NODE:NAME:=VALUE ...] [--startup-timeout S]
 
 Starts each node (default: sim, scene_encoder, planner) as ``python -m latent_planner_ros run <node>``
 with its ``config/<node>.yaml`` and ``use_sim_time:=true``, all on one ROS_DOMAIN_ID, each in its own
@@ -9,6 +9,11 @@ process group; echoes their output prefixed with ``[node]``; waits until every n
 graph with a publisher of its own, i.e. its start-up work is done); then runs until Ctrl-C / SIGTERM,
 until ``--duration`` seconds have passed, or until a node exits, and stops the suite (SIGINT, then
 SIGTERM, then SIGKILL; a second Ctrl-C skips the grace periods).
+
+One command source at a time: the planners start disabled and ``--execute`` names the one that commands the arm
+(``planner``: its closed loop is enabled; ``ompl_planner``: ``execute:=true``; ``none``; default ``planner`` when
+it is in the suite); a ``--param`` that would enable the other one is refused. At run time, enabling one of them
+disables the other (nodes/execution_owner.py).
 
 ``--headless``: the suite never opens a viewer and never records (the sim's ``--record`` is for
 ``run sim``); the flag makes MuJoCo render offscreen with osmesa (unless MUJOCO_GL is set) so the
@@ -47,6 +52,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help=f"the sim's scenario: a name in config/scenarios or a YAML file (default {DEFAULT_SCENARIO})",
     )
     parser.add_argument("--with-ompl", action="store_true", help="also start the ompl_planner baseline node")
+    parser.add_argument(
+        "--execute",
+        choices=EXECUTION_SOURCES + ("none",),
+        help="the node that commands the arm (default: planner when it is in the suite, else none)",
+    )
     parser.add_argument("--headless", action="store_true", help="no viewer or recording; render offscreen (osmesa)")
     parser.add_argument("--domain-id", type=int, metavar="N", help="ROS_DOMAIN_ID of all nodes (default: inherited)")
     parser.add_argument(
@@ -82,6 +92,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         parser.error("--startup-timeout must be positive")
     return args
 
+
+EXECUTION_SOURCES = ("planner", "ompl_planner")
+"""nodes that command the arm on joint_trajectory, one at a time"""
+ENABLING = {"planner": "enabled", "ompl_planner": "execute"}
+"""the boolean parameter that makes each execution source command the arm"""
 
 CLOUD_CONSUMERS = ("scene_encoder", "planner", "ompl_planner")
 """nodes that subscribe to the sim's clouds (`cloud_topics`)"""
@@ -132,6 +147,15 @@ def _node_list(args: argparse.Namespace) -> list[str]:
     return nodes
 
 
+def _executor(args: argparse.Namespace, nodes: list[str]) -> str:
+    """The execution source of the suite (``none`` for no node). Raises SuiteError for one not in the suite."""
+    if args.execute is None:
+        return "planner" if "planner" in nodes else "none"
+    if args.execute != "none" and args.execute not in nodes:
+        raise SuiteError(f"--execute {args.execute}: the node is not in the suite ({', '.join(nodes)})")
+    return args.execute
+
+
 def build_suite(args: argparse.Namespace) -> Supervisor:
     """The Supervisor for the parsed arguments. Raises SuiteError with a message for the user."""
     nodes = _node_list(args)
@@ -143,10 +167,20 @@ def build_suite(args: argparse.Namespace) -> Supervisor:
             for node in CLOUD_CONSUMERS:
                 if node in nodes:
                     params.setdefault(node, []).append(f"cloud_topics:=[{','.join(topics)}]")
+    executor = _executor(args, nodes)
+    for node in EXECUTION_SOURCES:
+        if node in nodes:
+            params.setdefault(node, []).append(f"{ENABLING[node]}:={'true' if node == executor else 'false'}")
     for text in args.param:
         node, assignment = parse_param(text)
         if node not in nodes:
             raise SuiteError(f"--param {text!r}: node {node!r} is not in the suite ({', '.join(nodes)})")
+        name, _, value = assignment.partition(":=")
+        if node != executor and ENABLING.get(node) == name and value.strip().lower() == "true":
+            raise SuiteError(
+                f"--param {text!r}: {executor if executor != 'none' else 'no node'} executes (one command source "
+                f"at a time); use --execute {node}"
+            )
         params.setdefault(node, []).append(assignment)  # after the defaults above, so the user's wins
     env = suite_env(args.domain_id, args.headless)
     return Supervisor(suite_specs(nodes, params, env))

@@ -221,3 +221,21 @@ def test_the_consumers_fuse_every_camera_of_the_scenario():
     assert not any("cloud_topics" in a for a in argv_of("--scenario", "conveyor")["planner"])  # one camera: defaults
     mine = argv_of("--scenario", "shelf", "--param", "planner:cloud_topics:=[camera/points]")["planner"]
     assert mine.index("cloud_topics:=[camera/points]") > mine.index(topics)  # the user's assignment comes last
+
+
+def test_one_execution_source_at_a_time():
+    from latent_planner_ros.launcher import build_suite, parse_args
+
+    def params_of(*args: str) -> dict[str, tuple[str, ...]]:
+        return {s.name: s.argv for s in build_suite(parse_args(list(args))).specs}
+
+    default = params_of("--with-ompl")
+    assert "enabled:=true" in default["planner"] and "execute:=false" in default["ompl_planner"]
+    ompl = params_of("--with-ompl", "--execute", "ompl_planner")
+    assert "enabled:=false" in ompl["planner"] and "execute:=true" in ompl["ompl_planner"]
+    idle = params_of("--execute", "none")
+    assert "enabled:=false" in idle["planner"]
+    with pytest.raises(SuiteError, match="one command source at a time"):
+        params_of("--with-ompl", "--param", "ompl_planner:execute:=true")
+    with pytest.raises(SuiteError, match="not in the suite"):
+        params_of("--execute", "ompl_planner")

@@ -7,13 +7,16 @@ frame of `frames.extrinsics` are transformed, any other frame is refused with th
 Service ~/plan (nav_msgs/GetPlan): `goal` = TCP target pose (in `world`, the base frame or an extrinsic frame),
 `start` ignored (the current joint state is the start), `tolerance` = position tolerance [m] (0: the
 configured one; NaN, inf or negative: refused); the response is the end-effector path, empty on failure.
-Publishes ~/trajectory (the joint trajectory, same header stamp as the returned Path; paths and markers in `world`),
-~/markers, ~/status and /diagnostics (state, reason of the last failure, timings), ~/plan_result
-(diagnostic_msgs/DiagnosticStatus: the outcome of every ~/plan request, OK on success, ERROR on a failure or
-refusal) and, with `execute`, joint_command at `command_rate_hz` along the trajectory.
+Publishes ~/trajectory (the plan's jerk-limited trajectory within `limits`, with velocities and accelerations, at
+rest at both ends; same header stamp as the returned Path; paths and markers in `world`), ~/markers, ~/status and
+/diagnostics (state, reason of the last failure, timings), ~/plan_result (diagnostic_msgs/DiagnosticStatus: the
+outcome of every ~/plan request, OK on success, ERROR on a failure or refusal) and, with `execute`, that
+trajectory once on joint_trajectory (stamp 0 = on receipt: a JointTrajectoryController or the sim executes it).
+Turning `execute` on claims the arm on execution_owner; a newer claim of another node (the planner enabled) turns
+it off (nodes/execution_owner.py), so two planners never command at once.
 Parameters: OmplPlannerNodeConfig (config/ompl_planner.yaml), statically typed with descriptors
-(sim_bridge/ros_params.py); a bad value is refused with its dotted name and the reason; `command_rate_hz` and
-`status_rate_hz` changes re-create their timers; `cloud_topics` and `frames.*` are read-only.
+(sim_bridge/ros_params.py); a bad value is refused with its dotted name and the reason; `status_rate_hz` changes
+re-create its timer; `cloud_topics` and `frames.*` are read-only.
 
     python -m latent_planner_ros run ompl_planner [--ros-args --params-file config/ompl_planner.yaml]
 """
@@ -30,10 +33,14 @@ from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState, PointCloud2
+from std_msgs.msg import Header
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
+from latent_planner_ros.nodes.execution_owner import QOS as OWNER_QOS
+from latent_planner_ros.nodes.execution_owner import ExecutionOwner
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.ompl_planner_config import RANGES, READ_ONLY, OmplPlannerNodeConfig
@@ -41,7 +48,7 @@ from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from latent_planner_ros.perception.frames import WORLD, path_to_world
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.ompl_baseline import OmplPlanner
-from latent_planner_ros.planning.trajectory_stream import TrajectoryStreamer
+from latent_planner_ros.planning.time_parameterisation import jerk_limited_trajectory
 from msg_adapters import (
     AdapterError,
     cloud_to_xyz,
@@ -50,7 +57,6 @@ from msg_adapters import (
     joint_state_to_q,
     plan_result_status,
     plan_tolerance,
-    q_to_joint_state,
     status_array,
 )
 from msg_adapters.plan_request import FAILED, REFUSED, SUCCESS
@@ -74,11 +80,11 @@ class OmplPlannerNode(Node):
         self._q: np.ndarray | None = None
         self._q_time = -math.inf
         self.fusion = CloudFusion(self.config.cloud_topics, self.frames, self.config.cloud_max_age_s)
-        self._streamer: TrajectoryStreamer | None = None
+        self._execution_end: float | None = None  # [s] when the executing trajectory ends
         self._state, self._last_error = "idle", ""
         self._last: dict[str, object] = {}
 
-        self.pub_command = self.create_publisher(JointState, "joint_command", 10)
+        self.pub_execution = self.create_publisher(JointTrajectory, "joint_trajectory", 10)
         self.pub_traj = self.create_publisher(JointTrajectory, "~/trajectory", 10)
         self.pub_markers = self.create_publisher(MarkerArray, "~/markers", 10)
         self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
@@ -88,7 +94,11 @@ class OmplPlannerNode(Node):
         for cloud_topic in self.config.cloud_topics:
             self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2)
         self.create_service(GetPlan, "~/plan", self._on_plan)
-        self._tick_timer = self.create_timer(1.0 / self.config.command_rate_hz, self._on_tick)
+        pub_owner = self.create_publisher(Header, "execution_owner", OWNER_QOS)
+        self.owner = ExecutionOwner(self.get_fully_qualified_name(), pub_owner.publish, self._on_preempted)
+        self.create_subscription(Header, "execution_owner", self.owner.on_claim, OWNER_QOS)
+        if self.config.execute:
+            self.owner.claim()
         self._status_timer = self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)
         self.get_logger().info(
             f"OMPL baseline ready: {self.planner.config.planner}, octree {self.config.ompl.octree_resolution} m, "
@@ -104,17 +114,15 @@ class OmplPlannerNode(Node):
 
     # -- parameters ------------------------------------------------------------------------------
     def _on_set_parameters(self, changes: dict) -> SetParametersResult:
-        """Apply {dotted name: value}: a new config and planner; rate changes re-create their timers (and the
-        running execution's period); read-only parameters never get here."""
+        """Apply {dotted name: value}: a new config and planner; a status rate change re-creates its timer; turning
+        `execute` on claims the arm; read-only parameters never get here."""
         try:
             config = from_params(OmplPlannerNodeConfig, changes, base=self.config)
             planner = OmplPlanner(config.ompl)
         except (ConfigError, ValueError, TypeError) as err:
             return SetParametersResult(successful=False, reason=str(err))
-        if config.command_rate_hz != self.config.command_rate_hz:
-            self._tick_timer = self._replace_timer(self._tick_timer, config.command_rate_hz, self._on_tick)
-            if self._streamer is not None:
-                self._streamer.period = 1.0 / config.command_rate_hz
+        if config.execute and not self.config.execute:
+            self.owner.claim()
         if config.status_rate_hz != self.config.status_rate_hz:
             self._status_timer = self._replace_timer(self._status_timer, config.status_rate_hz, self._publish_status)
         self.config, self.planner = config, planner
@@ -186,7 +194,7 @@ class OmplPlannerNode(Node):
             return REFUSED, "no point cloud received yet", None
         if fused.stale:
             self._error(f"clouds left out as stale: {fused.describe()}")
-        self._streamer = None  # a valid new request stops the execution of the previous plan
+        self._execution_end = None  # a valid new request ends the watch over the previous execution
         self._state = "planning"
         result = self.planner.plan(q, goal, fused.points if fused.sources else None)
         self._last = {
@@ -209,12 +217,16 @@ class OmplPlannerNode(Node):
         stamp = response.plan.header.stamp
         positions, quaternions = path_to_world(self.frames, result.ee_positions, result.ee_quaternions)
         response.plan = ee_path_to_path(positions, quaternions, frame_id=WORLD, stamp=stamp)
-        self.pub_traj.publish(joint_path_to_trajectory(result.q_path, result.times, self.joint_names, stamp=stamp))
+        timed = jerk_limited_trajectory(result.q_path, self.config.limits)
+        arrays = (timed.positions, timed.times, self.joint_names)
+        derivatives = {"velocities": timed.velocities, "accelerations": timed.accelerations}
+        self.pub_traj.publish(joint_path_to_trajectory(*arrays, stamp=stamp, **derivatives))
         goal_in_world = self.frames.base_to_world(goal.position[None])[0]
         self.pub_markers.publish(path_markers(positions, goal_in_world, stamp, frame_id=WORLD))
         self._state = "planned"
-        if self.config.execute:
-            self._streamer = TrajectoryStreamer(result.q_path, result.times, period=1.0 / self.config.command_rate_hz)
+        if self.config.execute:  # stamp 0: the controller starts it on receipt
+            self.pub_execution.publish(joint_path_to_trajectory(*arrays, **derivatives))
+            self._execution_end = self._now() + timed.duration
             self._state = "executing"
         return SUCCESS, result.reason, result
 
@@ -223,27 +235,23 @@ class OmplPlannerNode(Node):
         self._error(reason)
 
     # -- execution ----------------------------------------------------------------------------------
-    def _on_tick(self) -> None:
-        if self._streamer is None:
-            return
-        q = self._fresh_q()
-        if q is None:
-            self._error("execution paused: no fresh joint states")
-            return
-        command = self._streamer.next_command(q)
-        if command is None:
-            self._streamer = None
-            self._state = "executed"
-            return
-        stamp = self.get_clock().now().to_msg()
-        self.pub_command.publish(q_to_joint_state(command, names=self.joint_names, stamp=stamp))
+    def _on_preempted(self, owner: str) -> None:
+        """Another node claimed the arm: `execute` off (its trajectory is replaced by the new owner's)."""
+        if self.config.execute:
+            self.get_logger().warning(f"execute turned off: {owner} claimed the arm on execution_owner")
+            self.set_parameters([Parameter("execute", Parameter.Type.BOOL, False)])
+        if self._execution_end is not None:
+            self._execution_end, self._state = None, "preempted"
 
     def _publish_status(self) -> None:
+        if self._execution_end is not None and self._now() >= self._execution_end:
+            self._execution_end, self._state = None, "executed"
         level = WARN if self._state == "failed" else OK
         message = f"{self._state}: {self._last_error}" if self._state == "failed" else self._state
         values = {
             "state": self._state,
-            "executing": self._streamer is not None,
+            "executing": self._execution_end is not None,
+            "execution_owner": self.owner.owner,
             "planner": self.planner.name,
             "last_error": self._last_error,
             **self._last,

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from latent_planner_ros.nodes.frames_config import FRAMES_READ_ONLY, FramesConfig
 from latent_planner_ros.nodes.param_ranges import PLANNING_RANGES
 from latent_planner_ros.nodes.scene_encoder_config import check_topics
+from latent_planner_ros.planning.motion_limits import MotionLimits
 from latent_planner_ros.planning.ompl_baseline_config import OmplConfig
 from sim_bridge.params import ConfigError, check_number
 
@@ -14,11 +15,10 @@ from sim_bridge.params import ConfigError, check_number
 @dataclass
 class OmplPlannerNodeConfig:
     execute: bool = False
-    """stream joint_command along each successful plan"""
-    command_rate_hz: float = 10.0
-    """execution: joint_command rate [Hz]"""
+    """send each successful plan's trajectory on joint_trajectory; turning it on claims the arm on
+    `execution_owner` (the planner's closed loop is disabled)"""
     stale_joint_states_s: float = 0.5
-    """joint states older than this [s] refuse plans and pause execution"""
+    """joint states older than this [s] refuse plans"""
     require_cloud: bool = True
     """refuse plans until a point cloud has arrived (False: plan against an empty occupancy map)"""
     pos_tol: float = 0.01
@@ -32,13 +32,14 @@ class OmplPlannerNodeConfig:
     cloud_max_age_s: float = 0.5
     """[s] a topic's newest cloud stamped further than this from the newest cloud is left out as stale; 0 = never"""
     frames: FramesConfig = field(default_factory=FramesConfig)
+    limits: MotionLimits = field(default_factory=MotionLimits)
+    """fractions of the Panda's velocity, acceleration and jerk limits the plans' trajectories use"""
     ompl: OmplConfig = field(default_factory=OmplConfig)
 
     def __post_init__(self) -> None:
         for name in ("execute", "require_cloud"):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name}: expected true or false, got {getattr(self, name)!r}")
-        check_number("command_rate_hz", self.command_rate_hz, 0.0, 100.0, open_low=True)
         check_number("stale_joint_states_s", self.stale_joint_states_s, 0.0, 60.0, open_low=True)
         check_number("pos_tol", self.pos_tol, 0.0, 1.0, open_low=True)
         check_number("ori_tol_deg", self.ori_tol_deg, 0.0, 180.0, open_low=True)
@@ -50,7 +51,6 @@ class OmplPlannerNodeConfig:
 RANGES = {
     **PLANNING_RANGES,
     OmplPlannerNodeConfig: {
-        "command_rate_hz": "(0, 100]",
         "stale_joint_states_s": "(0, 60]",
         "pos_tol": "(0, 1]",
         "ori_tol_deg": "(0, 180]",

@@ -10,6 +10,7 @@ from __future__ import annotations
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig
 from latent_planner_ros.planning.ik import IkConfig
+from latent_planner_ros.planning.motion_limits import MotionLimits
 from latent_planner_ros.planning.ompl_baseline_config import OmplConfig
 
 CLOSED_LOOP = {
@@ -75,5 +76,13 @@ IK = {
     **dict.fromkeys(("damping", "max_step_rad", "pos_tol", "ori_tol_deg", "min_separation_rad", "timeout_s"), "> 0"),
 }
 
-PLANNING_RANGES = {ClosedLoopConfig: CLOSED_LOOP, AmpLsConfig: AMP_LS, OmplConfig: OMPL, IkConfig: IK}
+MOTION = dict.fromkeys(("velocity_scale", "acceleration_scale", "jerk_scale"), "(0, 1]")
+
+PLANNING_RANGES = {
+    ClosedLoopConfig: CLOSED_LOOP,
+    AmpLsConfig: AMP_LS,
+    OmplConfig: OMPL,
+    IkConfig: IK,
+    MotionLimits: MOTION,
+}
 """{config class: {field: range}} of the planning configs."""

@@ -7,11 +7,19 @@ newest clouds are fused in `world` (perception/cloud_fusion.py: one stamped more
 newest is left out and named on status; a cloud in another frame is refused with the topic and reason) and
 clouds above `cloud_max_points` are voxel-downsampled.
 Joint states that are malformed or far outside the joint limits are refused (the last good one goes stale and
-commands stop). Publishes joint_command (when enabled),
-~/trajectory, ~/markers, ~/status (with the last cloud's point counts) and, for every ~/plan request, its outcome on
+commands stop).
+
+Execution (while enabled and given a goal; nothing is commanded without one): at every tick a short jerk-limited
+segment to the next target on joint_trajectory (trajectory_msgs/JointTrajectory with velocities and accelerations,
+stamp 0 = on receipt; each segment starts from the state of the one it replaces, so a JointTrajectoryController, or
+the sim, follows with continuous velocity; remap it to the controller's topic), and the same target as a position
+setpoint on joint_command (sensor_msgs/JointState: for arms driven by position streaming, and for the monitors that
+watch the commands). Enabling claims the arm on execution_owner; a newer claim of another node (ompl_planner with
+`execute`) disables the planner (nodes/execution_owner.py). Publishes ~/trajectory (each plan's jerk-limited
+trajectory), ~/markers, ~/status (with the last cloud's point counts) and, for every ~/plan request, its outcome on
 ~/plan_result (diagnostic_msgs/DiagnosticStatus: OK on success, ERROR on a failure or refusal). Services ~/plan
-(nav_msgs/GetPlan; `tolerance`: 0 = the planner's pos_tol, a finite positive value [m], anything else refused)
-and ~/enable (std_srvs/SetBool).
+(nav_msgs/GetPlan; `tolerance`: 0 = the planner's pos_tol, a finite positive value [m], anything else refused) and
+~/enable (std_srvs/SetBool).
 
 Cylinder obstacles (LSPP): CYLINDER markers on `obstacles` (visualization_msgs/MarkerArray, standing on the
 table, see msg_adapters.cylinder_markers) are latched state, kept until DELETE/DELETEALL. While the set is not
@@ -41,15 +49,19 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, PointCloud2
+from std_msgs.msg import Header
 from std_srvs.srv import SetBool
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.vae_io import load_vae
+from latent_planner_ros.nodes.execution_owner import QOS as OWNER_QOS
+from latent_planner_ros.nodes.execution_owner import ExecutionOwner
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
+from latent_planner_ros.nodes.segment_chain import SegmentChain
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from latent_planner_ros.perception.frames import path_to_world
 from latent_planner_ros.perception.scene_input import limit_points
@@ -60,6 +72,7 @@ from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.lspp import make_lspp
 from latent_planner_ros.planning.plan_runner import PlanRequest, ThreadedPlanRunner, planning_function
 from latent_planner_ros.planning.planner_modes import LSPP, PlannerModes
+from latent_planner_ros.planning.time_parameterisation import jerk_limited_trajectory
 from msg_adapters import (
     AdapterError,
     apply_marker_array,
@@ -121,6 +134,7 @@ class PlannerNode(Node):
         self._markers_published = 0  # obstacle markers drawn on ~/markers so far
 
         self.pub_command = self.create_publisher(JointState, "joint_command", 10)
+        self.pub_execution = self.create_publisher(JointTrajectory, "joint_trajectory", 10)
         self.pub_traj = self.create_publisher(JointTrajectory, "~/trajectory", 10)
         self.pub_markers = self.create_publisher(MarkerArray, "~/markers", 10)
         self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
@@ -136,6 +150,12 @@ class PlannerNode(Node):
             self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2, **group)
         self.create_service(GetPlan, "~/plan", self._on_plan, callback_group=self._planning)
         self.create_service(SetBool, "~/enable", self._on_enable, **group)
+        self.segments = SegmentChain()
+        pub_owner = self.create_publisher(Header, "execution_owner", OWNER_QOS)
+        self.owner = ExecutionOwner(self.get_fully_qualified_name(), pub_owner.publish, self._on_preempted)
+        self.create_subscription(Header, "execution_owner", self.owner.on_claim, OWNER_QOS, **group)
+        if self.config.enabled:
+            self.owner.claim()
         self._tick_timer = self.create_timer(1.0 / self.config.closed_loop.rate_hz, self._on_tick, **group)
         self._status_timer = self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status, **group)
         self.get_logger().info(
@@ -186,6 +206,8 @@ class PlannerNode(Node):
             return SetParametersResult(successful=False, reason=str(err))
         with self._lock:
             self._swap(config, vae, modes, plan_planner)
+            if "enabled" in ours and config.enabled:
+                self.owner.claim()
         return SetParametersResult(successful=True)
 
     def _swap(self, config: PlannerNodeConfig, vae, modes: PlannerModes, plan_planner: AmpLs) -> None:
@@ -317,14 +339,40 @@ class PlannerNode(Node):
     def _on_tick(self) -> None:
         with self._lock:
             self._use_latest_cloud()
-            outcome = self.modes.tick(self._now())
+            now = self._now()
+            outcome = self.modes.tick(now)
             self._last_outcome = outcome
-        if outcome.command is not None:
-            stamp = self.get_clock().now().to_msg()
-            self.pub_command.publish(q_to_joint_state(outcome.command, names=self.joint_names, stamp=stamp))
+            q = self.modes.active.fresh_joint_state(now) if outcome.command is not None else None
+            limits, period = self.config.limits, 1.0 / self.config.closed_loop.rate_hz
+        if outcome.command is None:
+            return
+        segment = self.segments.next(now, outcome.command, outcome.command if q is None else q, limits, period)
+        self.pub_execution.publish(
+            joint_path_to_trajectory(
+                segment.positions,
+                segment.times,
+                names=self.joint_names,
+                velocities=segment.velocities,
+                accelerations=segment.accelerations,
+            )  # stamp 0: starts on receipt
+        )
+        stamp = self.get_clock().now().to_msg()
+        self.pub_command.publish(q_to_joint_state(outcome.command, names=self.joint_names, stamp=stamp))
+
+    @_locked
+    def _on_preempted(self, owner: str) -> None:
+        """Another node claimed the arm: stop commanding (call ~/enable to take it back)."""
+        if self.modes.active.enabled:
+            self.get_logger().warning(f"disabled: {owner} claimed the arm on execution_owner")
+        self.modes.set_enabled(False)
+        self.segments.reset()
 
     def _on_enable(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         with self._lock:
+            if request.data:
+                self.owner.claim()  # the other execution source stops
+            else:
+                self.segments.reset()
             self.modes.set_enabled(bool(request.data))
         response.success, response.message = True, "enabled" if request.data else "disabled"
         return response
@@ -394,8 +442,17 @@ class PlannerNode(Node):
         stamp = response.plan.header.stamp
         positions, quaternions = path_to_world(self.frames, result.ee_positions, result.ee_quaternions)
         response.plan = ee_path_to_path(positions, quaternions, frame_id="world", stamp=stamp)
-        trajectory = joint_path_to_trajectory(result.q_path, result.times, names=self.joint_names, stamp=stamp)
-        self.pub_traj.publish(trajectory)
+        timed = jerk_limited_trajectory(result.q_path, self.config.limits)
+        self.pub_traj.publish(
+            joint_path_to_trajectory(
+                timed.positions,
+                timed.times,
+                names=self.joint_names,
+                stamp=stamp,
+                velocities=timed.velocities,
+                accelerations=timed.accelerations,
+            )
+        )
         goal_world = path_to_world(self.frames, goal.position[None], np.array([[0.0, 0.0, 0.0, 1.0]]))[0][0]
         self.pub_markers.publish(path_markers(positions, goal_world, stamp))
         return SUCCESS, result.reason, result
@@ -413,6 +470,7 @@ class PlannerNode(Node):
             "cloud_points_in": points_in,
             "cloud_points_used": points_used,
             "cloud_sources": self._cloud_sources,
+            "execution_owner": self.owner.owner,
             **o.values,
         }
         stamp = self.get_clock().now().to_msg()

@@ -12,13 +12,15 @@ from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig
 from latent_planner_ros.planning.cylinder_backend import CHECKS
 from latent_planner_ros.planning.lspp import lspp_config
+from latent_planner_ros.planning.motion_limits import MotionLimits
 from sim_bridge.params import ConfigError
 
 
 @dataclass
 class PlannerNodeConfig:
-    enabled: bool = True
-    """track the goal in closed loop from the start (the enable service switches it)"""
+    enabled: bool = False
+    """track the goal in closed loop from the start (the enable service switches it); enabling claims the arm
+    on `execution_owner` (ompl_planner's execution stops)"""
     vae_checkpoint: str = ""
     """VAE checkpoint stem; empty = the shipped default"""
     collision_checkpoint: str = ""
@@ -44,6 +46,9 @@ class PlannerNodeConfig:
     cloud_max_age_s: float = 0.5
     """[s] a topic's newest cloud stamped further than this from the newest cloud is left out as stale; 0 = never"""
     frames: FramesConfig = field(default_factory=FramesConfig)
+    limits: MotionLimits = field(default_factory=MotionLimits)
+    """fractions of the Panda's velocity, acceleration and jerk limits the published trajectories use (the closed
+    loop's segments on joint_trajectory and the plans on ~/trajectory)"""
     closed_loop: ClosedLoopConfig = field(default_factory=ClosedLoopConfig)
     amp_ls: AmpLsConfig = field(default_factory=AmpLsConfig)
     lspp: AmpLsConfig = field(default_factory=lspp_config)

@@ -19,7 +19,7 @@ pytestmark = pytest.mark.ros
 
 @pytest.fixture
 def ompl_node():
-    rclpy.init(args=["--ros-args", "-p", "command_rate_hz:=20", "-p", "frames.joint_prefix:=fr3_"])
+    rclpy.init(args=["--ros-args", "-p", "status_rate_hz:=20", "-p", "frames.joint_prefix:=fr3_"])
     from latent_planner_ros.nodes.ompl_planner import OmplPlannerNode
 
     node = OmplPlannerNode()
@@ -35,7 +35,7 @@ def _set(node, name, value):
 
 
 def test_descriptors_carry_type_description_range_and_read_only(ompl_node):
-    d = ompl_node.describe_parameter("command_rate_hz")
+    d = ompl_node.describe_parameter("status_rate_hz")
     assert not d.dynamic_typing and d.type == Parameter.Type.DOUBLE.value
     assert "[Hz]" in d.description and d.additional_constraints == "valid range (0, 100]"
     assert (d.floating_point_range[0].from_value, d.floating_point_range[0].to_value) == (0.0, 100.0)
@@ -46,10 +46,10 @@ def test_descriptors_carry_type_description_range_and_read_only(ompl_node):
 
 
 def test_an_integer_yaml_value_for_a_double_stays_a_double(ompl_node):
-    assert ompl_node.get_parameter("command_rate_hz").type_ == Parameter.Type.DOUBLE
-    assert ompl_node.config.command_rate_hz == 20.0
-    assert _set(ompl_node, "status_rate_hz", 5).successful
     assert ompl_node.get_parameter("status_rate_hz").type_ == Parameter.Type.DOUBLE
+    assert ompl_node.config.status_rate_hz == 20.0
+    assert _set(ompl_node, "stale_joint_states_s", 2).successful
+    assert ompl_node.get_parameter("stale_joint_states_s").type_ == Parameter.Type.DOUBLE
 
 
 def test_refusals_name_the_dotted_parameter(ompl_node):
@@ -57,9 +57,9 @@ def test_refusals_name_the_dotted_parameter(ompl_node):
     assert not r.successful and r.reason.startswith("ompl.ik.pos_tol"), r.reason
     r = _set(ompl_node, "ompl.check_step_deg", 20.0)
     assert not r.successful and "ompl.check_step_deg" in r.reason, r.reason
-    r = _set(ompl_node, "command_rate_hz", True)  # a bool for a double
-    assert not r.successful and r.reason == "command_rate_hz: expected double, got bool True", r.reason
-    assert ompl_node.config.command_rate_hz == 20.0
+    r = _set(ompl_node, "status_rate_hz", True)  # a bool for a double
+    assert not r.successful and r.reason == "status_rate_hz: expected double, got bool True", r.reason
+    assert ompl_node.config.status_rate_hz == 20.0
     r = _set(ompl_node, "cloud_topics", ["other/points"])
     assert not r.successful and "read-only" in r.reason and "cloud_topics" in r.reason
 
@@ -69,11 +69,11 @@ def test_use_sim_time_is_accepted(ompl_node):
     assert ompl_node.get_parameter("use_sim_time").value is True
 
 
-def test_a_command_rate_change_re_creates_the_timer(ompl_node):
-    before = ompl_node._tick_timer
+def test_a_status_rate_change_re_creates_the_timer(ompl_node):
+    before = ompl_node._status_timer
     assert before.timer_period_ns == 50_000_000
-    assert _set(ompl_node, "command_rate_hz", 50.0).successful
-    assert ompl_node._tick_timer is not before and ompl_node._tick_timer.timer_period_ns == 20_000_000
+    assert _set(ompl_node, "status_rate_hz", 50.0).successful
+    assert ompl_node._status_timer is not before and ompl_node._status_timer.timer_period_ns == 20_000_000
 
 
 def test_joint_prefix_reads_fr3_joint_states(ompl_node):
