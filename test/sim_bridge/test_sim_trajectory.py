@@ -52,3 +52,32 @@ def test_a_trajectory_takes_over_from_the_position_setpoint(make_sim):
     assert sim.set_trajectory([0.1, 0.05], [Q_READY, Q_READY]) != ""  # refused: the arm keeps the first one
     sim.step(600)
     np.testing.assert_allclose(sim.get_state().setpoint, Q_READY, atol=1e-9)
+
+
+def test_segments_move_the_arm_smoothly_where_position_targets_jerk_it(make_sim):
+    """The same 10 Hz targets as position setpoints and as the planner's replacing segments: the measured joint
+    acceleration stays within 1.25 times the segments' limit, while position targets exceed twice it."""
+    from latent_planner_ros.nodes.segment_chain import SegmentChain
+
+    limits = MotionLimits()
+    goal = Q_READY + np.array([0.5, 0.25, -0.2, 0.35, 0.1, -0.2, 0.3])
+    peaks = {}
+    for mode in ("position", "segments"):
+        sim, chain, velocities = make_sim("empty"), SegmentChain(), []
+        for _ in range(40):
+            q = sim.get_state().q
+            target = q + np.clip(goal - q, -0.1 * limits.v_max, 0.1 * limits.v_max)
+            if mode == "position":
+                assert sim.set_command(target).accepted
+            else:
+                segment = chain.next(sim.data.time, target, q, limits, 0.1)
+                assert (
+                    sim.set_trajectory(segment.times, segment.positions, segment.velocities, segment.accelerations)
+                    == ""
+                )
+            for _ in range(10):
+                sim.step(5)
+                velocities.append(sim.get_state().dq)
+        peaks[mode] = (np.abs(np.diff(velocities, axis=0)) / 0.01).max(axis=0)
+    assert np.all(peaks["segments"] <= 1.25 * limits.a_max), peaks
+    assert np.all(peaks["position"] > 2.0 * limits.a_max[1]), peaks
