@@ -76,7 +76,7 @@ def test_caller_radius_and_box():
     cloud, is_object = _cloud()
     by_radius = split_target(cloud, TCP, HAND, radius=0.03)
     assert np.array_equal(by_radius.mask, np.linalg.norm(cloud - TCP, axis=1) <= 0.03)
-    box = TargetBox(TCP + [0.0, 0.0, 0.0045], np.eye(3), np.array([0.025, 0.02, 0.0365]))
+    box = TargetBox(TCP + [0.0, 0.0, 0.002], np.eye(3), np.array([0.025, 0.02, 0.0395]))
     by_box = split_target(cloud, TCP, HAND, box=box)
     assert by_box.mask[is_object & (cloud[:, 2] > BOARD_TOP + 0.004)].all() and not by_box.mask[~is_object].any()
     with pytest.raises(ValueError, match="not both"):
