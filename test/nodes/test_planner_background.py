@@ -109,7 +109,14 @@ print("RESULT " + json.dumps(out), flush=True)
 @pytest.mark.slow
 def test_planner_node_follows_background_plans_and_keeps_ticking_while_it_plans():
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    params = ["--params-file", "config/planner.yaml", "-p", "amp_ls.collision_backend:=geometric"]
+    params = [
+        "--params-file",
+        "config/planner.yaml",
+        "-p",
+        "amp_ls.collision_backend:=geometric",
+        "-p",
+        "enabled:=true",
+    ]
     procs = [_run("planner", [*params, "-p", "status_rate_hz:=10.0"], env)]
     try:
         probe = subprocess.run(

@@ -168,7 +168,7 @@ def test_planner_node_plans_reaches_and_refuses_bad_goals(backend):
         procs.append(
             _run("scene_encoder", ["--params-file", "config/scene_encoder.yaml", "-p", "use_sim_time:=true"], env)
         )
-    params = ["--params-file", "config/planner.yaml", "-p", "use_sim_time:=true"]
+    params = ["--params-file", "config/planner.yaml", "-p", "use_sim_time:=true", "-p", "enabled:=true"]
     procs.append(_run("planner", [*params, "-p", f"amp_ls.collision_backend:={backend}"], env))
     try:
         probe = subprocess.run(
@@ -320,7 +320,7 @@ def test_planner_node_switches_to_lspp_on_cylinder_markers(lspp_checkpoint):
     labeler = CollisionLabeler(cylinder_scene(np.array(cylinders)))
     assert labeler.label(np.linspace(Q_READY, goal_q, 50)).any() and not labeler.label(goal_q[None]).any()
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    params = ["--params-file", "config/planner.yaml", "-p", "status_rate_hz:=10.0"]
+    params = ["--params-file", "config/planner.yaml", "-p", "status_rate_hz:=10.0", "-p", "enabled:=true"]
     if lspp_checkpoint:
         params += ["-p", f"lspp_checkpoint:={lspp_checkpoint}"]
     planner = _run("planner", params, env)
