@@ -1,0 +1,122 @@
+"""Reach to grasp: the same grasp semantics for every planner (AMP-LS and the OMPL baseline alike).
+
+A grasp goal puts the TCP at an object with the open fingers around it. `plan_grasp`:
+
+1. splits the target off the cloud (perception/grasp_target.py: the points between the fingers at the goal and
+   the object they belong to, or a caller's radius / box);
+2. with `approach_m` > 0, plans with the planner's own `plan` to the pre-grasp pose, `approach_m` back along the
+   hand's z axis, on the WHOLE cloud: the target stays an obstacle there, since the hand must not hit the
+   object before the approach;
+3. then moves straight to the grasp pose (planning/grasp_approach.py), every step hard-checked by the planner's
+   own check against the cloud without the target; a blocked approach is refused with where it was blocked.
+
+With `approach_m` = 0 the planner plans straight to the grasp pose on the cloud without the target (nothing then
+keeps the hand from sweeping through the object on the way: use an approach).
+
+The result is one PlanResult over the joined path; its info carries "target_points" (points set aside),
+"target" (the split's report), "approach" (what the approach did) and "transit" (the transit's reason).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from latent_planner_ros.perception.grasp_target import GraspTargetConfig, TargetBox, split_target
+from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.grasp_approach import ApproachConfig, segment_check_for, straight_approach
+from latent_planner_ros.planning.result import PlanResult, result_from_path
+from latent_planner_ros.robot.panda import load_panda
+
+DEFAULT_APPROACH_M = 0.08
+"""[m] pre-grasp distance back along the hand's z axis when a grasp problem names none"""
+
+
+@dataclass(frozen=True)
+class GraspConfig:
+    target: GraspTargetConfig = field(default_factory=GraspTargetConfig)
+    """how the target is found in the cloud"""
+    approach: ApproachConfig = field(default_factory=ApproachConfig)
+    """the straight approach's steps and IK"""
+
+
+def pregrasp_goal(goal: Goal, approach_m: float) -> Goal:
+    """The goal moved approach_m [m] back along the hand's z axis (same orientation and tolerances)."""
+    return Goal(goal.position - approach_m * goal.rotation[:, 2], goal.rotation, goal.pos_tol, goal.ori_tol)
+
+
+def _split_origin(origin: np.ndarray | None, keep: np.ndarray) -> np.ndarray | None:
+    """Per-point origins (N, 3) follow the points kept (mask keep (N,)); a single origin (3,) stays."""
+    if origin is None or np.ndim(origin) == 1:
+        return origin
+    return np.asarray(origin)[keep]
+
+
+def plan_grasp(
+    planner,
+    start_q: np.ndarray,
+    goal: Goal,
+    cloud: np.ndarray,
+    origin: np.ndarray | None = None,
+    approach_m: float = DEFAULT_APPROACH_M,
+    config: GraspConfig | None = None,
+    target_radius: float | None = None,
+    target_box: TargetBox | None = None,
+) -> PlanResult:
+    """Plan from start_q (7,) [rad] to the grasp `goal` with an AmpLs or an OmplPlanner (see the module
+    docstring); cloud (N, 3) [m] in `world`, origin (3,) or (N, 3) [m] where it was seen from."""
+    cfg = config or GraspConfig()
+    if not (np.isfinite(approach_m) and approach_m >= 0):
+        raise ValueError(f"approach_m must be a non-negative number of metres, got {approach_m!r}")
+    t0 = time.perf_counter()
+    split = split_target(cloud, goal.position, goal.rotation, cfg.target, target_radius, target_box)
+    obstacles, obstacle_origin = split.obstacles, _split_origin(origin, ~split.mask)
+    t_split = time.perf_counter() - t0
+    info = {"target_points": split.count, "target": split.report, "approach_m": float(approach_m)}
+    panda = load_panda()
+    speed = float(getattr(planner.config, "speed_scale", 0.5))
+    if approach_m <= 0:
+        direct = planner.plan(start_q, goal, obstacles, obstacle_origin)
+        info.update(direct.info, approach="none", transit=direct.reason)
+        return result_from_path(
+            panda,
+            direct.q_path,
+            goal,
+            solved=direct.success,
+            reason=direct.reason,
+            t0=t0,
+            speed_scale=speed,
+            iterations=direct.iterations,
+            timings={**direct.timings, "target_s": t_split},
+            info=info,
+        )
+    transit = planner.plan(start_q, pregrasp_goal(goal, approach_m), cloud, origin)
+    info.update(transit.info, transit=transit.reason)
+    timings = {**{f"transit_{k}": v for k, v in transit.timings.items()}, "target_s": t_split}
+    if not transit.success:
+        info["approach"] = "not tried"
+        return result_from_path(
+            panda, transit.q_path, goal, solved=False, reason=f"pre-grasp: {transit.reason}", t0=t0,
+            speed_scale=speed, iterations=transit.iterations, timings=timings, info=info,
+        )  # fmt: skip
+    t = time.perf_counter()
+    check = segment_check_for(planner)
+    check.set_cloud(obstacles, obstacle_origin)
+    approach = straight_approach(panda, transit.q_path[-1], goal, check, cfg.approach)
+    timings["approach_s"] = time.perf_counter() - t
+    info["approach"] = approach.refused or f"{len(approach.q_path)} states, {approach_m * 100:g} cm"
+    q_path = np.concatenate([transit.q_path, approach.q_path])
+    return result_from_path(
+        panda,
+        q_path,
+        goal,
+        solved=not approach.refused,
+        reason=approach.refused or "reached",
+        t0=t0,
+        speed_scale=speed,
+        iterations=transit.iterations,
+        timings=timings,
+        info=info,
+    )
