@@ -16,7 +16,12 @@ Schema (frame `world` = `panda_link0`, table top at z = 0, lengths in metres, an
         "cameras": [{"eye": [3], "target": [3], "seed": int}, ...],  # optional, instead of "camera":
                                             # several views whose clouds are fused in `world`
         "family": str,                      # optional scene family, for per-family reports ("bookshelf", ...)
-        "inside": bool                      # optional: the goal lies inside furniture (a shelf slot, a bin)
+        "inside": bool,                     # optional: the goal lies inside furniture (a shelf slot, a bin)
+        "grasp": bool,                      # optional: the goal is a grasp (TCP at an object, open fingers
+                                            # around it): planned through planning/grasp.plan_grasp
+        "target": int,                      # optional (grasp only): index into "obstacles" of the object grasped
+        "approach_m": float                 # optional (grasp only): pre-grasp distance [m] back along the
+                                            # hand's z axis (default: the harness's)
        }, ...]}
 
 Obstacles: {"type": "box", "position", "quaternion_xyzw", "half_extents"} | {"type": "cylinder", "position",
@@ -61,6 +66,12 @@ _OBSTACLE_KEYS = {
 }
 
 
+_PROBLEM_KEYS = {
+    "start", "goal", "goal_q", "obstacles", "camera", "cameras", "name", "family", "inside", "grasp", "target",
+    "approach_m",
+}  # fmt: skip
+
+
 class ScenarioError(ValueError):
     """A scenario file or dict that does not follow the schema; the message names the field."""
 
@@ -91,6 +102,9 @@ class ScenarioProblem:
         cameras: fixed viewpoints whose clouds are fused; empty = one drawn from the default camera ranges.
         family: the scene family ("" = unnamed), for per-family reports.
         inside: the goal lies inside furniture (a shelf slot, a bin).
+        grasp: the goal is a grasp of an object (planned with planning/grasp.plan_grasp).
+        target: index into obstacles of the grasped object, or None.
+        approach_m: the grasp's pre-grasp distance [m], or None (the harness's default).
     """
 
     start: np.ndarray
@@ -101,6 +115,9 @@ class ScenarioProblem:
     cameras: tuple[CameraSpec, ...] = ()
     family: str = ""
     inside: bool = False
+    grasp: bool = False
+    target: int | None = None
+    approach_m: float | None = None
 
     def __post_init__(self):
         if isinstance(self.cameras, CameraSpec):  # a single view passed positionally, as before
@@ -148,6 +165,12 @@ class ScenarioProblem:
             out["family"] = self.family
         if self.inside:
             out["inside"] = True
+        if self.grasp:
+            out["grasp"] = True
+        if self.target is not None:
+            out["target"] = int(self.target)
+        if self.approach_m is not None:
+            out["approach_m"] = float(self.approach_m)
         return out
 
 
@@ -254,7 +277,7 @@ def problem_from_dict(d: Any, where: str = "problem") -> ScenarioProblem:
     """Parse one problem dict; raises ScenarioError naming the field (prefixed by `where`)."""
     if not isinstance(d, dict):
         raise ScenarioError(f"{where}: must be an object, got {type(d).__name__}")
-    _no_extra_keys(d, {"start", "goal", "goal_q", "obstacles", "camera", "cameras", "name", "family", "inside"}, where)
+    _no_extra_keys(d, _PROBLEM_KEYS, where)
     start = _configuration(d, "start", where)
     goal = d.get("goal")
     if not isinstance(goal, dict):
@@ -270,7 +293,9 @@ def problem_from_dict(d: Any, where: str = "problem") -> ScenarioProblem:
     if not isinstance(obstacles, list):
         raise ScenarioError(f"{where}.obstacles: must be a list, got {type(obstacles).__name__}")
     parsed = tuple(_obstacle(o, f"{where}.obstacles[{j}]") for j, o in enumerate(obstacles))
-    return ScenarioProblem(start, position, quat / norm, parsed, goal_q, _cameras(d, where), *_labels(d, where))
+    return ScenarioProblem(
+        start, position, quat / norm, parsed, goal_q, _cameras(d, where), *_labels(d, where), *_grasp(d, where, parsed)
+    )
 
 
 def _cameras(d: dict, where: str) -> tuple[CameraSpec, ...]:
@@ -295,6 +320,31 @@ def _labels(d: dict, where: str) -> tuple[str, bool]:
     if not isinstance(inside, bool):
         raise ScenarioError(f"{where}.inside: must be true or false, got {inside!r}")
     return family, inside
+
+
+def _grasp(d: dict, where: str, obstacles: tuple) -> tuple[bool, int | None, float | None]:
+    """The problem's optional "grasp" (a bool), "target" (an obstacle index) and "approach_m" (metres >= 0);
+    the last two only for a grasp."""
+    grasp, target, approach = d.get("grasp", False), d.get("target"), d.get("approach_m")
+    if not isinstance(grasp, bool):
+        raise ScenarioError(f"{where}.grasp: must be true or false, got {grasp!r}")
+    for key, value in (("target", target), ("approach_m", approach)):
+        if value is not None and not grasp:
+            raise ScenarioError(f'{where}.{key}: only for a grasp problem ("grasp": true)')
+    if target is not None and (
+        isinstance(target, bool) or not isinstance(target, int) or not 0 <= target < len(obstacles)
+    ):
+        raise ScenarioError(
+            f"{where}.target: must be an index into obstacles (0..{len(obstacles) - 1}), got {target!r}"
+        )
+    if approach is not None and (
+        isinstance(approach, bool)
+        or not isinstance(approach, int | float)
+        or not math.isfinite(approach)
+        or approach < 0
+    ):
+        raise ScenarioError(f"{where}.approach_m: must be a non-negative number of metres, got {approach!r}")
+    return grasp, target, None if approach is None else float(approach)
 
 
 def set_from_dict(d: Any, source: str = "scenario set") -> ScenarioSet:

@@ -114,6 +114,9 @@ P = ("problems", 0)
         ),
         ((*P, "family"), 3, "problems[0].family"),
         ((*P, "inside"), "yes", "problems[0].inside"),
+        ((*P, "grasp"), 1, "problems[0].grasp"),
+        ((*P, "target"), 0, "problems[0].target: only for a grasp"),
+        ((*P, "approach_m"), 0.1, "problems[0].approach_m: only for a grasp"),
     ],
 )
 def test_bad_files_are_refused_naming_the_field(path, value, named, tmp_path):
@@ -234,3 +237,21 @@ def test_the_harness_fuses_every_camera_with_one_origin_per_point():
     local = np.abs(both - np.asarray(box.position)) - np.asarray(box.half_extents)
     assert np.all(np.abs(local.max(axis=1)) < 0.02)
     assert np.any(both[from_side, 1] > 0.095) and np.any(both[~from_side, 0] > 0.595)
+
+
+def test_grasp_fields_round_trip_and_are_checked(tmp_path):
+    d = _valid()
+    d["problems"][0].update(grasp=True, target=1, approach_m=0.06)
+    p = set_from_dict(d).problems[0]
+    assert p.grasp and p.target == 1 and p.approach_m == 0.06
+    again = load_scenarios(save_scenarios(set_from_dict(d), tmp_path / "g.json")).problems[0]
+    assert (again.grasp, again.target, again.approach_m) == (True, 1, 0.06)
+    plain = set_from_dict(_valid()).problems[0]
+    assert not plain.grasp and plain.target is None and "grasp" not in plain.to_dict()
+    n = len(d["problems"][0]["obstacles"])
+    for key, value, named in (("target", n, "problems[0].target"), ("target", True, "problems[0].target"),
+                              ("approach_m", -0.01, "problems[0].approach_m")):  # fmt: skip
+        bad = copy.deepcopy(d)
+        bad["problems"][0][key] = value
+        with pytest.raises(ScenarioError, match=named.replace("[", r"\[").replace("]", r"\]")):
+            set_from_dict(bad)
