@@ -179,6 +179,19 @@ class _GoalSearch:
         return None
 
 
+def pick_start(sampler: FeasibleSampler, panda: PandaModel, obstacles, goal_q: np.ndarray, config) -> np.ndarray | None:
+    """A start (7,) [rad] among config.candidates feasible samples that keeps config.clearance [m] from the true
+    obstacles, has its TCP config.min_distance [m] from goal_q's (7,) and (config.blocked) whose straight motion
+    to goal_q collides; None if no sample qualifies."""
+    goal_p = panda.fk_batch(goal_q)[0]
+    q = np.round(sampler.sample(config.candidates), DIGITS)
+    grown = CollisionLabeler(Scene(tuple(inflated(o, config.clearance) for o in obstacles)))
+    free = q[~grown.label(q).any(axis=1)]
+    far = free[np.linalg.norm(panda.fk_batch(free)[0] - goal_p, axis=1) >= config.min_distance] if len(free) else free
+    true_labeler = CollisionLabeler(Scene(obstacles))
+    return next((s for s in far if not config.blocked or direct_motion_collides(true_labeler, s, goal_q)), None)
+
+
 def _reachable(targets):
     return [t for t in targets if np.linalg.norm(np.asarray(t.centre) - SHOULDER) < REACH + 0.1]
 
@@ -236,14 +249,7 @@ def workcell_problem_and_target(
         if goal_q is None:
             continue
         goal_p, goal_r = panda.fk_batch(goal_q)
-        q = np.round(sampler.sample(config.candidates), DIGITS)
-        grown = CollisionLabeler(Scene(tuple(inflated(o, config.clearance) for o in obstacles)))
-        free = q[~grown.label(q).any(axis=1)]
-        far = (
-            free[np.linalg.norm(panda.fk_batch(free)[0] - goal_p, axis=1) >= config.min_distance] if len(free) else free
-        )
-        true_labeler = CollisionLabeler(Scene(obstacles))
-        start = next((s for s in far if not config.blocked or direct_motion_collides(true_labeler, s, goal_q)), None)
+        start = pick_start(sampler, panda, obstacles, goal_q, config)
         if start is None:
             continue
         problem = ScenarioProblem(
