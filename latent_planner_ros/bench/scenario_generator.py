@@ -16,7 +16,8 @@ The shipped default set is this command's output with its defaults (DEFAULT_SET)
 
 With a workcell family (`--family bookshelf|bin|cage|undershelf|wall|mixed`, or `workcell` to cycle through
 all six) the problems come from bench/workcell_problems.py instead: furniture around the arm, `--goal
-pregrasp|inside|mixed` goals at or inside it, `--split train|heldout` scene variants, several cameras.
+pregrasp|inside|mixed` goals at or inside it, `--split train|heldout` scene variants, several cameras; `--goal
+grasp` makes grasp problems instead (bench/grasp_problems.py: goals at small objects, the fingers around them).
 """
 
 from __future__ import annotations
@@ -162,6 +163,26 @@ def generate_set(config: GeneratorConfig, name: str = "tabletop_heldout", progre
     return ScenarioSet(name, problems, table=True, description=description, extra=extra)
 
 
+def _grasp_main(args: argparse.Namespace) -> int:
+    """The CLI for grasp problems in workcell families (bench/grasp_problems.py); defaults from GraspSetConfig."""
+    from latent_planner_ros.bench.grasp_problems import GraspSetConfig, generate_grasp_set
+
+    config = GraspSetConfig(
+        problems=GraspSetConfig.problems if args.problems is None else args.problems,
+        seed=GraspSetConfig.seed if args.seed is None else args.seed,
+        family=args.family,
+        split=args.split,
+        clearance=args.clearance,
+        min_distance=args.min_distance,
+        blocked=not args.any_motion,
+    )
+    name = args.name or f"grasp_{config.split}"
+    out = args.out or DEFAULT_SET.parent / f"{name}_{config.problems}.json"
+    path = save_scenarios(generate_grasp_set(config, name), out, DIGITS)
+    print(f"wrote {path} ({path.stat().st_size / 1e3:.0f} kB)", file=sys.stderr)
+    return 0
+
+
 def _workcell_main(args: argparse.Namespace) -> int:
     """The CLI for workcell families (bench/workcell_problems.py); defaults from WorkcellConfig."""
     from latent_planner_ros.bench.workcell_problems import WorkcellConfig, generate_workcell_set
@@ -196,7 +217,7 @@ def main(argv: list[str] | None = None) -> int:
         choices=("heldout", "train", *WORKCELL_FAMILIES, "workcell"),
         help="tabletop shape family (heldout, train) or workcell family (workcell: all six in turn)",
     )
-    p.add_argument("--goal", default="mixed", choices=("pregrasp", "inside", "mixed"), help="workcell goals")
+    p.add_argument("--goal", default="mixed", choices=("pregrasp", "inside", "mixed", "grasp"), help="workcell goals")
     p.add_argument("--split", default="heldout", choices=("train", "heldout"), help="workcell scene variants")
     p.add_argument("--clearance", type=float, default=GeneratorConfig.clearance, help="[m]")
     p.add_argument("--min-distance", type=float, default=GeneratorConfig.min_distance, help="[m]")
@@ -204,7 +225,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--name", default=None, help="set name (default: tabletop_heldout, or <family>_<split>)")
     args = p.parse_args(argv)
     if args.family not in ("heldout", "train"):
-        return _workcell_main(args)
+        return _grasp_main(args) if args.goal == "grasp" else _workcell_main(args)
     config = GeneratorConfig(
         problems=GeneratorConfig.problems if args.problems is None else args.problems,
         seed=GeneratorConfig.seed if args.seed is None else args.seed,

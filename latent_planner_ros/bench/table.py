@@ -6,6 +6,11 @@ succeeds when the planner reports success, its last state's TCP is within 1 cm a
 (pinocchio FK), and the joint path, densified to <= 1 cm of TCP motion and <= 0.02 rad per joint between
 checks, is free of the TRUE obstacles (exact coal meshes), the table and self collision.
 
+A grasp problem (`"grasp": true`) is planned by every planner through planning/grasp.plan_grasp (the target's
+points set aside, a plan to the pre-grasp `approach_m` back, default 8 cm, then a straight checked approach); the
+judge keeps the target object among the true obstacles: fingers around it are fine, a finger touching it is a
+collision.
+
     python -m latent_planner_ros bench table --out bench_out/table [--scenarios FILE] [--scenes N]
         [--planners amp_ls,rrtconnect,...] [--backend auto|learned|geometric] [--workers 2] [--minutes M]
 
@@ -156,6 +161,7 @@ class TableRunner:
         from latent_planner_ros.evaluation.path_check import PathJudge
         from latent_planner_ros.planning.amp_ls import AmpLs
         from latent_planner_ros.planning.goal import Goal
+        from latent_planner_ros.planning.grasp import DEFAULT_APPROACH_M, plan_grasp
 
         goal = Goal.from_pose(problem.goal_position, problem.goal_quaternion_xyzw, POS_TOL, np.radians(ORI_TOL_DEG))
         cloud, origin = problem_cloud(problem, index, self.table)
@@ -166,14 +172,21 @@ class TableRunner:
         for name, planner in self.planners.items():
             if isinstance(planner, AmpLs):
                 planner.generator.manual_seed(index)  # the extra latent seeds depend on the problem only
-            result = planner.plan(problem.start, goal, cloud, origin)
-            verdict = judge.judge(result.q_path, goal)
+            if problem.grasp:  # the same semantics for every planner: planning/grasp.py
+                approach = DEFAULT_APPROACH_M if problem.approach_m is None else problem.approach_m
+                result = plan_grasp(planner, problem.start, goal, cloud, origin, approach)
+            else:
+                result = planner.plan(problem.start, goal, cloud, origin)
+            verdict = judge.judge(result.q_path, goal)  # the target stays an obstacle of the judge
             rows.append(
                 {
                     "problem": index,
                     "planner": name,
                     "family": problem.family or "unnamed",
                     "inside": bool(problem.inside),
+                    "grasp": bool(problem.grasp),
+                    "target_points": int(result.info.get("target_points", 0)),
+                    "approach": str(result.info.get("approach", "")),
                     "success": bool(result.success and verdict.reached and not verdict.collision),
                     "claimed": bool(result.success),
                     "reached": bool(verdict.reached),

@@ -62,17 +62,21 @@ def summarise(rows: list[dict], names: list[str]) -> dict:
 
 
 def breakdown(rows: list[dict]) -> dict:
-    """One planner's rows per scene family, and over the problems whose goal lies inside furniture (key
-    "inside goals"): {group: {n, successes, success, success_ci95, time_median_s, unsafe}}; empty when the rows
-    have a single family and no inside goal (a plain tabletop set)."""
+    """One planner's rows per scene family, over the problems whose goal lies inside furniture (key "inside
+    goals") and over the grasp problems (key "grasp goals", planned through planning/grasp.plan_grasp):
+    {group: {n, successes, success, success_ci95, time_median_s, unsafe}}; empty when the rows have a single
+    family, no inside goal and no grasp (a plain tabletop set)."""
     groups: dict[str, list[dict]] = {}
     for r in rows:
         groups.setdefault(r.get("family", "unnamed"), []).append(r)
     inside = [r for r in rows if r.get("inside")]
-    if len(groups) < 2 and not inside:
+    grasp = [r for r in rows if r.get("grasp")]
+    if len(groups) < 2 and not inside and not grasp:
         return {}
     if inside:
         groups["inside goals"] = inside
+    if grasp:
+        groups["grasp goals"] = grasp
     out = {}
     for group, mine in sorted(groups.items()):
         n, k = len(mine), sum(r["success"] for r in mine)
@@ -182,7 +186,8 @@ def _family_lines(planners: dict) -> list[str]:
     lines = [
         "",
         "Per scene family: success (successes/problems), median planning time [s], unsafe plans; the row "
-        "`inside goals` counts the problems whose goal lies inside furniture (a shelf slot, a bin):",
+        "`inside goals` counts the problems whose goal lies inside furniture (a shelf slot, a bin), the row "
+        "`grasp goals` the grasp problems (target set aside, pre-grasp, straight approach):",
         "",
         "| planner | " + " | ".join(f"`{g}`" for g in groups) + " |",
         "|---|" + "---|" * len(groups),

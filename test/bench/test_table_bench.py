@@ -83,3 +83,27 @@ def test_the_report_breaks_success_down_per_family_and_inside_goals():
     rows += [row(3, "bin", False, True) | {"planner": "rrtconnect"}]  # a row without every family
     results["planners"] = summarise(rows, ["amp_ls", "rrtconnect"])
     assert "families" in figures(results, rows)
+
+
+def test_grasp_problems_are_their_own_group_with_unsafe_plans():
+    from latent_planner_ros.bench.table_report import summarise
+
+    def row(i, ok, collision=None):
+        return {"problem": i, "planner": "amp_ls", "family": "bin", "inside": False, "grasp": True, "success": ok,
+                "claimed": True, "reached": True, "collision": collision, "time_s": 0.1, "reason": "",
+                "path_len_norm": 1.2, "joint_path_rad": 1.0, "ee_path_m": 0.5, "timings": {}}  # fmt: skip
+
+    fam = summarise([row(0, True), row(1, False, "obstacle")], ["amp_ls"])["amp_ls"]["families"]
+    assert fam["grasp goals"]["n"] == 2 and fam["grasp goals"]["successes"] == 1 and fam["grasp goals"]["unsafe"] == 1
+
+
+def test_a_grasp_problem_runs_through_plan_grasp_for_every_planner(tmp_path):
+    from latent_planner_ros.bench.grasp_problems import GraspSetConfig, generate_grasp_problem
+    from latent_planner_ros.bench.table import TableRunner
+
+    problem = generate_grasp_problem(0, GraspSetConfig(seed=9400, split="train"))
+    rows = TableRunner(["amp_ls", "rrtconnect"], "geometric", table=True).run(0, problem)
+    for r in rows:
+        assert r["grasp"] and r["target_points"] > 0, r
+        assert r["approach"], r
+        assert not (r["claimed"] and r["collision"]), r
