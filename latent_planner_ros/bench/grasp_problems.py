@@ -4,8 +4,9 @@ Each problem (seeded by (seed, index); `--goal grasp` of scenario_generator.py, 
 workcell_problems.py):
   1. a workcell scene of the problem's family and an object (data/grasp_objects.py: an upright box or cylinder,
      2-6 cm across its narrow side) standing on a support of the furniture: a shelf board in a slot, a bin's floor,
-     the table under a shelf, or the table below a cage window / between pillars; at least 2 cm from every
-     surface but its support;
+     the table under a shelf, or the table below a cage window / between pillars (after half the scenes without
+     one: the table in front of the furniture; the held-out bins are too deep for the hand with 1.5 cm to spare);
+     at least 2 cm from every surface but its support;
   2. the grasp goal: the TCP at the object's centre, the hand's z axis along the region's entry direction
      (within 10 deg of yaw; from above for a bin), the fingers across the narrow side; its configuration (IK)
      keeps `grasp_clearance` from every obstacle but the target and `finger_gap` from the target (the fingers
@@ -85,6 +86,15 @@ def _support(region: Region) -> float | None:
     return 0.0 if bottom < 0.3 else None
 
 
+def _table_in_front(furniture) -> Region:
+    """A 30 x 30 cm patch of the table 10-40 cm in front of a piece of furniture, entered towards it."""
+    front = np.asarray(furniture.front, dtype=float)
+    yaw = float(np.arctan2(-front[1], -front[0]))
+    axes = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    centre = np.asarray(furniture.anchor, dtype=float) + 0.25 * front + np.array([0.0, 0.0, 0.15])
+    return Region(tuple(centre.tolist()), axes, (0.15, 0.15, 0.15), tuple((-front).tolist()), "table")
+
+
 class _GraspSearch:
     def __init__(self, obstacles, config: GraspSetConfig, panda: PandaModel, checker):
         self.obstacles, self.config, self.panda, self.checker = obstacles, config, panda, checker
@@ -96,7 +106,9 @@ class _GraspSearch:
         if support is None:
             return None
         xy = region.sample(rng, margin=0.05)[:2]
-        obj = draw_object(rng, xy, support, np.asarray(region.approach))
+        horizontal = np.asarray(region.half_extents)[:2]
+        long_axis = region.axes[:, int(np.argmax(horizontal))]
+        obj = draw_object(rng, xy, support, np.asarray(region.approach), long_axis=long_axis)
         target = obstacle_from_dict(round_obstacle(obstacle_to_dict(obj.obstacle), DIGITS))
         obj = GraspObject(target, obj.tcp_rotation)
         if clearance_except_support(target, self.obstacles, support) < cfg.object_clearance:
@@ -133,12 +145,15 @@ def generate_grasp_problem(index: int, config: GraspSetConfig, max_scenes: int =
     fams = config.families()
     family = fams[index % len(fams)]
     panda, sampler = load_panda(), FeasibleSampler(rng)
-    for _ in range(max_scenes):
+    for attempt in range(max_scenes):
         cell = generate_workcell_layout(rng, family, index, config.split)
         obstacles = tuple(obstacle_from_dict(round_obstacle(obstacle_to_dict(o), DIGITS)) for o in cell.scene.obstacles)
+        # after half the scenes without a grasp inside the furniture (deep held-out bins leave the hand no 1.5 cm),
+        # the table in front of it
+        inner = cell.regions if attempt < max_scenes // 2 else tuple(_table_in_front(f) for f in cell.furniture)
         regions = [
             r
-            for r in cell.regions
+            for r in inner
             if _support(r) is not None and np.linalg.norm(np.asarray(r.centre) - SHOULDER) < REACH + 0.05
         ]
         if not regions:

@@ -53,16 +53,26 @@ def hand_rotation(approach: np.ndarray, across: np.ndarray) -> np.ndarray:
 
 
 def draw_object(
-    rng: np.random.Generator, xy: np.ndarray, support_z: float, approach: np.ndarray, tilt_deg: float = 10.0
+    rng: np.random.Generator,
+    xy: np.ndarray,
+    support_z: float,
+    approach: np.ndarray,
+    tilt_deg: float = 10.0,
+    long_axis: np.ndarray | None = None,
 ) -> GraspObject:
     """An upright object standing at xy (2,) [m] on a support at height support_z [m], grasped along approach
-    (3,): from above when approach points down (> 45 deg), else from the side, its narrow side across it."""
+    (3,): from above when approach points down (> 45 deg), else from the side, its narrow side across it. From
+    above, the fingers close along long_axis (3,) (within tilt_deg; a random direction when None): the hand is
+    long across the fingers, so it fits a narrow bin that way."""
     approach = np.asarray(approach, dtype=float) / np.linalg.norm(approach)
     top = approach[2] < -math.sqrt(0.5)
     width = rng.uniform(*WIDTH)
     depth = rng.uniform(width, WIDTH[1])
     height = rng.uniform(*(TOP_HEIGHT if top else SIDE_HEIGHT))
-    if top:
+    if top and long_axis is not None:
+        yaw = math.atan2(long_axis[1], long_axis[0]) + math.radians(rng.uniform(-tilt_deg, tilt_deg))
+        z = np.array([0.0, 0.0, -1.0])
+    elif top:
         yaw = rng.uniform(-math.pi, math.pi)
         z = np.array([0.0, 0.0, -1.0])
     else:
