@@ -58,7 +58,8 @@ def generate_launch_description() -> LaunchDescription:
                 executable="planner",
                 name="planner",
                 output="screen",
-                parameters=[*_params_files("planner"), use_sim_time],
+                # the one execution source of this suite (planners start disabled: docs/nodes.md)
+                parameters=[*_params_files("planner"), use_sim_time, {"enabled": True}],
             ),
         ]
     )

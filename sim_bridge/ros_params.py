@@ -19,6 +19,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.parameter import Parameter
 
 from sim_bridge.param_specs import ParamSpec, RangeTable, param_specs
@@ -99,7 +100,10 @@ class ConfigParams:
                 if not ok:
                     raise ConfigError(type_refusal(spec, overrides[spec.name].value))
                 overrides[spec.name] = Parameter(spec.name, TYPES[spec.type], value)
-            node.declare_parameter(spec.name, spec.value, descriptor(spec))
+            try:
+                node.declare_parameter(spec.name, spec.value, descriptor(spec))
+            except (InvalidParameterValueException, InvalidParameterTypeException) as err:  # e.g. out of its range
+                raise ConfigError(f"{spec.name}: {err}") from None
         self.config = from_params(config_cls, self.values())
         node.add_pre_set_parameters_callback(self._pre_set)
 

@@ -19,7 +19,7 @@ import torch.nn.functional as F
 from scipy.ndimage import distance_transform_edt
 
 from latent_planner_ros.planning.ball_query import BallQuery, finite_rows
-from latent_planner_ros.robot.link_hulls import link_hull_planes, plane_distance
+from latent_planner_ros.robot.link_hulls import hull_cover_spheres, link_hull_planes, plane_distance
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.spheres import panda_spheres
 from latent_planner_ros.robot.torch_fk import TorchFK
@@ -46,10 +46,11 @@ class GeometricBackendConfig:
     check_margin: float = 0.0
     """extra clearance [m] required by the hard check"""
     exact_margin: float | None = 0.01
-    """None: the hard check refuses every observed point inside a sphere; else a configuration the spheres refuse
-    is refused only if one of those points also lies within this distance [m] of the convex hull of the link's
-    collision geometry (robot/link_hulls.py), so that the spheres' slack does not close gaps of 1-2 cm (goals in
-    a shelf slot or a bin)"""
+    """None: the hard check refuses every observed point inside a sphere of the sphere model; else a configuration
+    is refused when an observed point lies within this distance [m] of the convex hull of a link's collision
+    geometry (robot/link_hulls.py; spheres covering the hulls grown by this margin find the candidates), so that
+    the sphere model's slack does not close gaps of 1-2 cm (goals in a shelf slot or a bin) and its gaps (parts
+    of the hulls outside its spheres) let nothing through"""
 
     def __post_init__(self) -> None:
         if self.distance not in ("nearest", "field"):
@@ -68,10 +69,17 @@ class GeometricBackend:
         self._idx = torch.as_tensor(np.flatnonzero(moving))
         self._radius = torch.as_tensor(self.spheres.radius[moving], dtype=torch.float32)
         self._fk = TorchFK()
-        # the hard check in float64 numpy: each moving sphere's link, homogeneous centre (S, 4) and radius [m]
-        self._sphere_link = self.spheres.link[moving]
-        self._sphere_centre = np.concatenate([self.spheres.centre[moving], np.ones((int(moving.sum()), 1))], 1)
-        self._check_radius = np.maximum(self.spheres.radius[moving] + self.config.check_margin, 0.0)
+        # the hard check in float64 numpy: each check sphere's link, homogeneous centre (S, 4) and radius [m]; with
+        # exact_margin, spheres covering the link hulls grown by that margin (the hull test decides), else the
+        # sphere model's moving spheres
+        if self.config.exact_margin is None:
+            link, centre, radius = self.spheres.link[moving], self.spheres.centre[moving], self.spheres.radius[moving]
+        else:
+            link, centre, radius = hull_cover_spheres()
+            radius = radius + self.config.exact_margin
+        self._sphere_link = link
+        self._sphere_centre = np.concatenate([centre, np.ones((len(link), 1))], 1)
+        self._check_radius = np.maximum(radius + self.config.check_margin, 0.0)
         self._hulls = link_hull_planes()
         # per moving sphere, the radius [m] of the ball about its centre that lies inside its link's hull (0 if the
         # centre is outside it): a point that close to the centre is inside the hull

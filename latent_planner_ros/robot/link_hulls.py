@@ -9,7 +9,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, cKDTree
 
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.spheres import link_geometry_objects
@@ -43,3 +43,44 @@ def plane_distance(planes: np.ndarray, points: np.ndarray) -> np.ndarray:
     bound of the distance [m] to it outside (the exact distance off the hull's faces, less near edges and
     corners), so `plane_distance(...) <= margin` keeps every point within `margin` of the hull."""
     return (points @ planes[:, :3].T + planes[:, 3]).max(axis=1)
+
+
+HULL_SPHERES_PER_LINK = 10
+"""spheres per link covering its hull (the hard check's prefilter)"""
+
+
+@lru_cache(maxsize=1)
+def hull_cover_spheres() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Spheres whose union covers each moving link's convex hull: (link index into LINK_FRAMES (S,), centre in
+    the link frame (S, 3) [m], radius (S,) [m]). k-means over points spread over each hull's surface and a
+    grid of its interior; each radius reaches the farthest of its points plus the largest gap between
+    neighbouring surface points, so no point of the hull lies outside the union. Deterministic; computed once.
+
+    (The sphere model of robot/spheres.py is fitted to the mesh vertices and leaves parts of the hull
+    surfaces outside its spheres, up to 9 cm on panda_link5: a prefilter for the hull test must not.)"""
+    from scipy.cluster.vq import kmeans2
+
+    rng = np.random.default_rng(0)
+    links, centres, radii = [], [], []
+    for name, vertices in link_vertices().items():
+        if name == "panda_link0":  # stands on the table
+            continue
+        hull = ConvexHull(vertices)
+        tri = vertices[hull.simplices]
+        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        n = 6000
+        idx = rng.choice(len(tri), n, p=area / area.sum())
+        a, b = rng.random((2, n, 1))
+        flip = a + b > 1
+        a, b = np.where(flip, 1 - a, a), np.where(flip, 1 - b, b)
+        surface = tri[idx, 0] + a * (tri[idx, 1] - tri[idx, 0]) + b * (tri[idx, 2] - tri[idx, 0])
+        gap = float(cKDTree(surface).query(surface, k=2)[0][:, 1].max())  # farthest a surface point is from a sample
+        k = min(HULL_SPHERES_PER_LINK, len(surface))
+        centre, label = kmeans2(surface, k, seed=rng, minit="++")
+        for j in range(k):
+            members = surface[label == j]
+            if len(members):
+                links.append(LINK_FRAMES.index(name))
+                centres.append(centre[j])
+                radii.append(float(np.linalg.norm(members - centre[j], axis=1).max()) + gap)
+    return np.asarray(links), np.asarray(centres), np.asarray(radii)
