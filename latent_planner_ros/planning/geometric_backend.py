@@ -59,6 +59,20 @@ class GeometricBackendConfig:
             raise ValueError(f"cost_range must be positive, got {self.cost_range!r}")
 
 
+HULL_FEW_PLANES = 24
+"""planes of each link hull tried first in the hull test (directions spread over the sphere)"""
+
+
+def _spread(normals: np.ndarray, k: int) -> np.ndarray:
+    """Indices of k rows of normals (F, 3) with directions spread apart (greedy farthest point)."""
+    chosen = [0]
+    dist = 1.0 - normals @ normals[0]
+    for _ in range(min(k, len(normals)) - 1):
+        chosen.append(int(np.argmax(dist)))
+        dist = np.minimum(dist, 1.0 - normals @ normals[chosen[-1]])
+    return np.asarray(chosen)
+
+
 class GeometricBackend:
     name = "geometric"
 
@@ -80,7 +94,14 @@ class GeometricBackend:
         self._sphere_link = link
         self._sphere_centre = np.concatenate([centre, np.ones((len(link), 1))], 1)
         self._check_radius = np.maximum(radius + self.config.check_margin, 0.0)
+        # per link, a ball holding all of its check spheres: link index, homogeneous centre (L, 4), radius [m]
+        self._bound_link, self._sphere_bound = np.unique(link, return_inverse=True)
+        bound_centre = np.array([centre[link == lk].mean(axis=0) for lk in self._bound_link])
+        reach = np.linalg.norm(centre - bound_centre[self._sphere_bound], axis=1) + self._check_radius
+        self._bound_radius = np.array([reach[link == lk].max() for lk in self._bound_link])
+        self._bound_centre = np.concatenate([bound_centre, np.ones((len(bound_centre), 1))], 1)
         self._hulls = link_hull_planes()
+        self._hull_few = {lk: planes[_spread(planes[:, :3], HULL_FEW_PLANES)] for lk, planes in self._hulls.items()}
         # per moving sphere, the radius [m] of the ball about its centre that lies inside its link's hull (0 if the
         # centre is outside it): a point that close to the centre is inside the hull
         self._core = np.array([
@@ -166,8 +187,14 @@ class GeometricBackend:
             return np.zeros(len(frames), dtype=bool)
         t = frames[:, self._sphere_link, :3, :]  # (M, S, 3, 4)
         c = np.einsum("msij,sj->msi", t, self._sphere_centre)  # R c + p, (M, S, 3)
-        hit = self._balls.occupied(c.reshape(-1, 3), np.tile(self._check_radius, len(frames)))
-        hit = hit.reshape(c.shape[:2])
+        # one ball per link first (it holds all of the link's check spheres): only links with a point in it are
+        # asked sphere by sphere (most states of a plan are far from most points)
+        lc = np.einsum("mlij,lj->mli", frames[:, self._bound_link, :3, :], self._bound_centre)  # (M, L, 3)
+        near = self._balls.occupied(lc.reshape(-1, 3), np.tile(self._bound_radius, len(frames)))
+        near = near.reshape(lc.shape[:2])[:, self._sphere_bound]  # (M, S): the sphere's link ball holds a point
+        hit = np.zeros(c.shape[:2], dtype=bool)
+        if near.any():
+            hit[near] = self._balls.occupied(c[near], self._check_radius[np.nonzero(near)[1]])
         if self.config.exact_margin is None or not hit.any():
             return hit.any(axis=1)
         return self._hull_hits(frames, c, hit)
@@ -188,13 +215,23 @@ class GeometricBackend:
         lists = self._balls._kdtree().query_ball_point(centres[m_idx, s_idx], self._check_radius[s_idx])
         counts = np.fromiter((len(p) for p in lists), dtype=int, count=len(lists))
         pair = np.repeat(np.arange(len(lists)), counts)
-        pts = self.cloud[np.concatenate(lists).astype(int)] if len(pair) else np.zeros((0, 3))
+        point = np.concatenate(lists).astype(int) if len(pair) else np.zeros(0, dtype=int)
+        # the spheres of a link overlap: test each (configuration, link, point) once
+        key = (m_idx[pair].astype(np.int64) * len(LINK_FRAMES) + self._sphere_link[s_idx[pair]]) * len(self.cloud)
+        _, first = np.unique(key + point, return_index=True)
+        pair, point = pair[first], point[first]
+        pts = self.cloud[point]
         link = self._sphere_link[s_idx[pair]]
         tf = frames[m_idx[pair], link]  # (P, 4, 4): each point's link pose
         local = np.einsum("pji,pj->pi", tf[:, :3, :3], pts - tf[:, :3, 3])  # R^T (p - t)
         close = np.zeros(len(pair), dtype=bool)
+        margin = self.config.exact_margin
         for lk in np.unique(link):
-            sel = link == lk
-            close[sel] = plane_distance(self._hulls[lk], local[sel]) <= self.config.exact_margin
+            sel = np.flatnonzero(link == lk)
+            # a few of the hull's planes first: a point beyond one of them by more than the margin is out (exact:
+            # the full test's maximum is at least that); the rest take all planes
+            maybe = plane_distance(self._hull_few[lk], local[sel]) <= margin
+            sel = sel[maybe]
+            close[sel] = plane_distance(self._hulls[lk], local[sel]) <= margin
         out[m_idx[pair[close]]] = True
         return out

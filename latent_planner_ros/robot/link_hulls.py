@@ -45,7 +45,7 @@ def plane_distance(planes: np.ndarray, points: np.ndarray) -> np.ndarray:
     return (points @ planes[:, :3].T + planes[:, 3]).max(axis=1)
 
 
-HULL_SPHERES_PER_LINK = 10
+HULL_SPHERES_PER_LINK = 24
 """spheres per link covering its hull (the hard check's prefilter)"""
 
 
