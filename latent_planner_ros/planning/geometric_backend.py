@@ -43,6 +43,10 @@ class GeometricBackendConfig:
     """clearance [m] below which the cost starts to rise"""
     temperature: float = 0.01
     """width [m] of the sigmoid from clearance to probability"""
+    floor_z: float | None = 0.015
+    """points below this height [m] are the table, which the planners check exactly (a half-space in their
+    self/table check), not obstacles: the same rule as the OMPL baseline's `min_z`, so noisy table points do not
+    push the arm's links 2 cm off the table top; None: every point is an obstacle"""
     check_margin: float = 0.0
     """extra clearance [m] required by the hard check"""
     exact_margin: float | None = 0.01
@@ -116,6 +120,8 @@ class GeometricBackend:
         """Use cloud (N, 3) [m] for the hard check only (no distance field); returns its finite points."""
         cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
         cloud = cloud[finite_rows(cloud)]
+        if self.config.floor_z is not None:
+            cloud = cloud[cloud[:, 2] >= self.config.floor_z]
         self.cloud = cloud
         self._balls = BallQuery(cloud)
         return cloud

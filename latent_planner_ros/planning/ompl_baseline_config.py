@@ -31,7 +31,7 @@ class OmplConfig:
     octree_resolution: float = 0.01
     """occupancy map voxel edge [m]: 1 cm, since 2 cm voxels (MoveIt's usual 2.5 cm alike) refuse goals 1.5-4 cm
     from a surface (a shelf slot, a bin: 10 of 60 goal configurations of the shipped workcell set)"""
-    min_z: float = 0.01
+    min_z: float = 0.015
     """cloud points below this height [m] are dropped (the table is checked exactly)"""
     padding: float = 0.0
     """clearance [m] the links must keep from occupied voxels"""

@@ -29,7 +29,7 @@ BOARD = Box((0.66, 0.0, 0.15), UPRIGHT, (0.09, 0.25, 0.01))  # top at z = 0.16, 
 OBJECT = Box((0.6, 0.0, 0.231), UPRIGHT, (0.02, 0.015, 0.07))  # 4 x 3 x 14 cm, standing 1 mm above the board
 HAND = np.array([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])  # approach +x, fingers along y, x up
 GOAL = Goal(np.array([0.6, 0.0, 0.231]), HAND)
-WINDOW = Box((0.535, 0.0, 0.25), UPRIGHT, (0.002, 0.1, 0.05))  # a plate 4.3 cm in front of the object's face
+WINDOW = Box((0.56, 0.0, 0.25), UPRIGHT, (0.002, 0.1, 0.05))  # a plate 1.8 cm in front of the object's face
 
 
 def _surface(box: Box, step: float = 0.005) -> np.ndarray:
