@@ -47,6 +47,7 @@ from latent_planner_ros.nodes.ompl_planner_config import RANGES, READ_ONLY, Ompl
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from latent_planner_ros.perception.frames import WORLD, path_to_world
 from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.grasp import grasp_reason, plan_grasp
 from latent_planner_ros.planning.ompl_baseline import OmplPlanner
 from latent_planner_ros.planning.time_parameterisation import jerk_limited_trajectory
 from msg_adapters import (
@@ -94,6 +95,7 @@ class OmplPlannerNode(Node):
         for cloud_topic in self.config.cloud_topics:
             self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2)
         self.create_service(GetPlan, "~/plan", self._on_plan)
+        self.create_service(GetPlan, "~/plan_grasp", partial(self._on_plan, grasp=True))
         pub_owner = self.create_publisher(Header, "execution_owner", OWNER_QOS)
         self.owner = ExecutionOwner(self.get_fully_qualified_name(), pub_owner.publish, self._on_preempted)
         self.create_subscription(Header, "execution_owner", self.owner.on_claim, OWNER_QOS)
@@ -160,12 +162,13 @@ class OmplPlannerNode(Node):
         return self._q.copy()
 
     # -- planning -----------------------------------------------------------------------------------
-    def _on_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
-        """Plan once; every request, refused or planned, is answered on ~/plan_result as well."""
+    def _on_plan(self, request: GetPlan.Request, response: GetPlan.Response, grasp: bool = False) -> GetPlan.Response:
+        """Plan once (grasp: to a grasp goal, ~/plan_grasp); every request, refused or planned, is answered on
+        ~/plan_result as well."""
         response.plan = Path()
         response.plan.header.frame_id = WORLD
         response.plan.header.stamp = self.get_clock().now().to_msg()
-        outcome, reason, result = self._plan(request, response)
+        outcome, reason, result = self._plan(request, response, grasp)
         if outcome == REFUSED:
             self._fail(f"plan refused: {reason}")
         elif outcome == FAILED:
@@ -177,7 +180,9 @@ class OmplPlannerNode(Node):
         self.pub_plan_result.publish(plan_result_status(self.get_name(), outcome, reason, stamp, waypoints, *timing))
         return response
 
-    def _plan(self, request: GetPlan.Request, response: GetPlan.Response) -> tuple[str, str, object]:
+    def _plan(
+        self, request: GetPlan.Request, response: GetPlan.Response, grasp: bool = False
+    ) -> tuple[str, str, object]:
         """(outcome, reason, PlanResult or None): SUCCESS fills `response`, publishes and starts the execution."""
         q = self._fresh_q()
         if q is None:
@@ -190,16 +195,20 @@ class OmplPlannerNode(Node):
         except (AdapterError, ValueError) as err:
             return REFUSED, str(err), None
         fused = self.fusion.fuse()
-        if not fused.sources and self.config.require_cloud:
+        if not fused.sources and (self.config.require_cloud or grasp):
             return REFUSED, "no point cloud received yet", None
         if fused.stale:
             self._error(f"clouds left out as stale: {fused.describe()}")
         self._execution_end = None  # a valid new request ends the watch over the previous execution
         self._state = "planning"
-        result = self.planner.plan(q, goal, fused.points if fused.sources else None)
+        if grasp:
+            result = plan_grasp(self.planner, q, goal, fused.points, None, approach_m=self.config.grasp_approach_m)
+        else:
+            result = self.planner.plan(q, goal, fused.points if fused.sources else None)
+        reason = grasp_reason(result) if grasp else result.reason
         self._last = {
             "last_success": result.success,
-            "last_reason": result.reason,
+            "last_reason": reason,
             "planning_time_s": result.planning_time_s,
             **{k: v for k, v in result.timings.items() if k != "total_s"},
             "states_checked": result.iterations,
@@ -213,7 +222,7 @@ class OmplPlannerNode(Node):
             f"{len(result.q_path)} states, error {result.final_pos_err_m * 1000:.1f} mm"
         )
         if not result.success:
-            return FAILED, result.reason, result
+            return FAILED, reason, result
         stamp = response.plan.header.stamp
         positions, quaternions = path_to_world(self.frames, result.ee_positions, result.ee_quaternions)
         response.plan = ee_path_to_path(positions, quaternions, frame_id=WORLD, stamp=stamp)
@@ -228,7 +237,7 @@ class OmplPlannerNode(Node):
             self.pub_execution.publish(joint_path_to_trajectory(*arrays, **derivatives))
             self._execution_end = self._now() + timed.duration
             self._state = "executing"
-        return SUCCESS, result.reason, result
+        return SUCCESS, reason, result
 
     def _fail(self, reason: str) -> None:
         self._state = "failed"

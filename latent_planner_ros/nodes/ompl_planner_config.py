@@ -31,6 +31,9 @@ class OmplPlannerNodeConfig:
     """the cloud topics (one per camera; frames as `frames` accepts) fused into the occupancy map; fixed at start-up"""
     cloud_max_age_s: float = 0.5
     """[s] a topic's newest cloud stamped further than this from the newest cloud is left out as stale; 0 = never"""
+    grasp_approach_m: float = 0.08
+    """[m] ~/plan_grasp: plan to the pre-grasp this far back along the hand's z axis, then approach straight
+    (planning/grasp.py, as the planner node); 0 = plan to the grasp directly, target points set aside"""
     frames: FramesConfig = field(default_factory=FramesConfig)
     limits: MotionLimits = field(default_factory=MotionLimits)
     """fractions of the Panda's velocity, acceleration and jerk limits the plans' trajectories use"""
@@ -46,6 +49,7 @@ class OmplPlannerNodeConfig:
         check_number("status_rate_hz", self.status_rate_hz, 0.0, 100.0, open_low=True)
         check_topics("cloud_topics", self.cloud_topics)
         check_number("cloud_max_age_s", self.cloud_max_age_s, 0.0, 3600.0)
+        check_number("grasp_approach_m", self.grasp_approach_m, 0.0, 0.3)
 
 
 RANGES = {
@@ -56,6 +60,7 @@ RANGES = {
         "ori_tol_deg": "(0, 180]",
         "status_rate_hz": "(0, 100]",
         "cloud_max_age_s": "[0, 3600]",
+        "grasp_approach_m": "[0, 0.3]",
     },
 }
 """Valid ranges of the ompl_planner's parameters, as the validation enforces them."""

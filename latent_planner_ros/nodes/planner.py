@@ -69,6 +69,7 @@ from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.backends import make_backend
 from latent_planner_ros.planning.closed_loop import ClosedLoopController, TickOutcome
 from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.grasp import grasp_reason, plan_grasp
 from latent_planner_ros.planning.lspp import make_lspp
 from latent_planner_ros.planning.plan_runner import PlanRequest, ThreadedPlanRunner, planning_function
 from latent_planner_ros.planning.planner_modes import LSPP, PlannerModes
@@ -149,6 +150,8 @@ class PlannerNode(Node):
         if self.config.amp_ls.collision_backend == "learned":
             self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2, **group)
         self.create_service(GetPlan, "~/plan", self._on_plan, callback_group=self._planning)
+        grasp = partial(self._on_plan, grasp=True)
+        self.create_service(GetPlan, "~/plan_grasp", grasp, callback_group=self._planning)
         self.create_service(SetBool, "~/enable", self._on_enable, **group)
         self.segments = SegmentChain()
         pub_owner = self.create_publisher(Header, "execution_owner", OWNER_QOS)
@@ -377,12 +380,13 @@ class PlannerNode(Node):
         response.success, response.message = True, "enabled" if request.data else "disabled"
         return response
 
-    def _on_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
-        """Plan once; every request, refused or planned, is answered on ~/plan_result as well."""
+    def _on_plan(self, request: GetPlan.Request, response: GetPlan.Response, grasp: bool = False) -> GetPlan.Response:
+        """Plan once (grasp: to a grasp goal, ~/plan_grasp); every request, refused or planned, is answered on
+        ~/plan_result as well."""
         response.plan = Path()
         response.plan.header.frame_id = "world"
         response.plan.header.stamp = self.get_clock().now().to_msg()
-        outcome, reason, result = self._plan(request, response)
+        outcome, reason, result = self._plan(request, response, grasp)
         if outcome == REFUSED:
             self._error(f"plan refused: {reason}")
         elif outcome == FAILED:
@@ -394,9 +398,9 @@ class PlannerNode(Node):
         self.pub_plan_result.publish(plan_result_status(self.get_name(), outcome, reason, stamp, waypoints, *timing))
         return response
 
-    def _plan_inputs(self, request: GetPlan.Request) -> tuple[str, object]:
+    def _plan_inputs(self, request: GetPlan.Request, grasp: bool = False) -> tuple[str, object]:
         """("", (PlanRequest, planner, lspp)) for a plan, or (reason, None) for a refusal; takes the inputs under
-        the lock, briefly."""
+        the lock, briefly. A grasp goal lies at an object: no goal-inside-obstacle check, a cloud is needed."""
         with self._lock:
             controller = self.modes.active
             q = controller.fresh_joint_state(self._now())
@@ -407,27 +411,35 @@ class PlannerNode(Node):
             except (AdapterError, ValueError) as err:
                 return str(err), None
             self._use_latest_cloud()
-            ok, reason = self.modes.check_goal(goal)
+            lspp = self.modes.mode == LSPP
+            if grasp and (lspp or controller.cloud is None):
+                return "grasp goals need a point cloud (and no cylinder obstacles)", None
+            ok, reason = controller.check_goal(goal, check_cloud=False) if grasp else self.modes.check_goal(goal)
             if not ok:
                 return "goal " + reason.removeprefix("goal refused: "), None
-            lspp = self.modes.mode == LSPP
             planner = controller.planner if lspp else self.plan_planner
             scene = controller.scene if planner.config.use_collision else None
             if planner.config.use_collision and scene is None:
                 return "no scene received yet", None
             return "", (PlanRequest(q, goal, scene, controller.cloud, 0), planner, lspp)
 
-    def _plan(self, request: GetPlan.Request, response: GetPlan.Response) -> tuple[str, str, object]:
+    def _plan(
+        self, request: GetPlan.Request, response: GetPlan.Response, grasp: bool = False
+    ) -> tuple[str, str, object]:
         """(outcome, reason, PlanResult or None): SUCCESS fills `response` and publishes the trajectory. AMP-LS
         plans on its planning instance while the closed loop goes on ticking; LSPP plans on the closed loop's
         own instance, so the loop waits for it (LSPP plans take tens of milliseconds)."""
-        refusal, inputs = self._plan_inputs(request)
+        refusal, inputs = self._plan_inputs(request, grasp)
         if inputs is None:
             return REFUSED, refusal, None
         plan_request, planner, lspp = inputs
         goal = plan_request.goal
         t0 = time.perf_counter()
-        if lspp:
+        if grasp:
+            with self._plan_lock:
+                q, cloud = plan_request.q, plan_request.cloud
+                result = plan_grasp(planner, q, goal, cloud, None, approach_m=self.config.grasp_approach_m)
+        elif lspp:
             with self._lock:
                 result = planner.plan(plan_request.q, goal, plan_request.scene)
         else:
@@ -437,8 +449,9 @@ class PlannerNode(Node):
             f"in {time.perf_counter() - t0:.3f} s, "
             f"{len(result.q_path)} states, error {result.final_pos_err_m * 1000:.1f} mm"
         )
+        reason = grasp_reason(result) if grasp else result.reason
         if not result.success:
-            return FAILED, result.reason, result
+            return FAILED, reason, result
         stamp = response.plan.header.stamp
         positions, quaternions = path_to_world(self.frames, result.ee_positions, result.ee_quaternions)
         response.plan = ee_path_to_path(positions, quaternions, frame_id="world", stamp=stamp)
@@ -455,7 +468,7 @@ class PlannerNode(Node):
         )
         goal_world = path_to_world(self.frames, goal.position[None], np.array([[0.0, 0.0, 0.0, 1.0]]))[0][0]
         self.pub_markers.publish(path_markers(positions, goal_world, stamp))
-        return SUCCESS, result.reason, result
+        return SUCCESS, reason, result
 
     @_locked
     def _publish_status(self) -> None:

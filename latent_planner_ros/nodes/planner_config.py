@@ -45,6 +45,9 @@ class PlannerNodeConfig:
     and the goal checks; fixed at start-up"""
     cloud_max_age_s: float = 0.5
     """[s] a topic's newest cloud stamped further than this from the newest cloud is left out as stale; 0 = never"""
+    grasp_approach_m: float = 0.08
+    """[m] ~/plan_grasp: plan to the pre-grasp this far back along the hand's z axis, then approach straight
+    (planning/grasp.py); 0 = plan to the grasp directly, target points set aside"""
     frames: FramesConfig = field(default_factory=FramesConfig)
     limits: MotionLimits = field(default_factory=MotionLimits)
     """fractions of the Panda's velocity, acceleration and jerk limits the published trajectories use (the closed
@@ -64,6 +67,9 @@ class PlannerNodeConfig:
             check_topics("cloud_topics", self.cloud_topics)
         except ConfigError as err:
             raise ValueError(str(err)) from None
+        g = self.grasp_approach_m
+        if not (isinstance(g, int | float) and not isinstance(g, bool) and math.isfinite(g) and 0 <= g <= 0.3):
+            raise ValueError(f"grasp_approach_m must be a number in [0, 0.3], got {g!r}")
         c = self.cloud_max_age_s
         if not (isinstance(c, int | float) and not isinstance(c, bool) and math.isfinite(c) and 0 <= c <= 3600):
             raise ValueError(f"cloud_max_age_s must be a number in [0, 3600], got {c!r}")
@@ -90,6 +96,7 @@ RANGES = {
         "cloud_voxel_m": "[0, 0.5]",
         "status_rate_hz": "(0, 100]",
         "cloud_max_age_s": "[0, 3600]",
+        "grasp_approach_m": "[0, 0.3]",
     },
 }
 """Valid ranges of the planner's parameters (sim_bridge/param_specs.py), as the validation enforces them."""

@@ -42,6 +42,12 @@ class GraspConfig:
     """the straight approach's steps and IK"""
 
 
+def grasp_reason(result: PlanResult) -> str:
+    """A grasp plan's reason with how many target points were set aside, for a caller (the nodes' plan
+    results), e.g. "reached (grasp: 137 target points set aside)"."""
+    return f"{result.reason} (grasp: {result.info.get('target_points', 0)} target points set aside)"
+
+
 def pregrasp_goal(goal: Goal, approach_m: float) -> Goal:
     """The goal moved approach_m [m] back along the hand's z axis (same orientation and tolerances)."""
     return Goal(goal.position - approach_m * goal.rotation[:, 2], goal.rotation, goal.pos_tol, goal.ori_tol)
