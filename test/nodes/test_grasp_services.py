@@ -61,7 +61,7 @@ for name in ("planner", "ompl_planner"):
     last = poses[-1].pose.position if poses else None
     out[name] = {
         "poses": len(poses),
-        "end_err": float(np.linalg.norm([last.x - GOAL.position[0], last.y - GOAL.position[1], last.z - GOAL.position[2]])) if last else None,
+        "end_err": float(np.linalg.norm(np.array([last.x, last.y, last.z]) - GOAL.position)) if last else None,
         "result": results[n] if len(results) > n else "",
     }
 print("RESULT " + json.dumps(out), flush=True)
