@@ -163,45 +163,38 @@ def generate_set(config: GeneratorConfig, name: str = "tabletop_heldout", progre
     return ScenarioSet(name, problems, table=True, description=description, extra=extra)
 
 
-def _grasp_main(args: argparse.Namespace) -> int:
-    """The CLI for grasp problems in workcell families (bench/grasp_problems.py); defaults from GraspSetConfig."""
-    from latent_planner_ros.bench.grasp_problems import GraspSetConfig, generate_grasp_set
-
-    config = GraspSetConfig(
-        problems=GraspSetConfig.problems if args.problems is None else args.problems,
-        seed=GraspSetConfig.seed if args.seed is None else args.seed,
+def _write_family_set(args: argparse.Namespace, config_cls: type, generate, prefix: str, **fields) -> int:
+    """Generate and write a set of `config_cls` (defaults from it, CLI values over them) with `generate`; the
+    set is named `<prefix>_<split>` unless --name says otherwise."""
+    config = config_cls(
+        problems=config_cls.problems if args.problems is None else args.problems,
+        seed=config_cls.seed if args.seed is None else args.seed,
         family=args.family,
         split=args.split,
         clearance=args.clearance,
         min_distance=args.min_distance,
         blocked=not args.any_motion,
+        **fields,
     )
-    name = args.name or f"grasp_{config.split}"
+    name = args.name or f"{prefix}_{config.split}"
     out = args.out or DEFAULT_SET.parent / f"{name}_{config.problems}.json"
-    path = save_scenarios(generate_grasp_set(config, name), out, DIGITS)
+    path = save_scenarios(generate(config, name), out, DIGITS)
     print(f"wrote {path} ({path.stat().st_size / 1e3:.0f} kB)", file=sys.stderr)
     return 0
+
+
+def _grasp_main(args: argparse.Namespace) -> int:
+    """The CLI for grasp problems in workcell families (bench/grasp_problems.py); defaults from GraspSetConfig."""
+    from latent_planner_ros.bench.grasp_problems import GraspSetConfig, generate_grasp_set
+
+    return _write_family_set(args, GraspSetConfig, generate_grasp_set, "grasp")
 
 
 def _workcell_main(args: argparse.Namespace) -> int:
     """The CLI for workcell families (bench/workcell_problems.py); defaults from WorkcellConfig."""
     from latent_planner_ros.bench.workcell_problems import WorkcellConfig, generate_workcell_set
 
-    config = WorkcellConfig(
-        problems=WorkcellConfig.problems if args.problems is None else args.problems,
-        seed=WorkcellConfig.seed if args.seed is None else args.seed,
-        family=args.family,
-        goal=args.goal,
-        split=args.split,
-        clearance=args.clearance,
-        min_distance=args.min_distance,
-        blocked=not args.any_motion,
-    )
-    name = args.name or f"{config.family}_{config.split}"
-    out = args.out or DEFAULT_SET.parent / f"{name}_{config.problems}.json"
-    path = save_scenarios(generate_workcell_set(config, name), out, DIGITS)
-    print(f"wrote {path} ({path.stat().st_size / 1e3:.0f} kB)", file=sys.stderr)
-    return 0
+    return _write_family_set(args, WorkcellConfig, generate_workcell_set, args.family, goal=args.goal)
 
 
 def main(argv: list[str] | None = None) -> int:
