@@ -35,6 +35,7 @@ Beyond the seed, `plan` (not `step`) by default (each a switch of AmpLsConfig, m
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 import torch
@@ -266,7 +267,29 @@ class AmpLs(PlanAdditions):
         self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None, origin: np.ndarray | None = None
     ) -> PlanResult:
         """Plan from start_q (7,) [rad] to `goal`; `cloud` (N, 3) [m] is the observed scene, seen from the camera
-        origin (3,) [m] if known.
+        origin (3,) [m] if known (a scene embedding for the learned backend). With geometric_retry, a failure with
+        the network is planned again with the geometric backend in the time left (info["geometric_retry"])."""
+        result = self._plan_once(start_q, goal, cloud, origin)
+        cfg, backend = self.config, self.backend
+        left = cfg.timeout_s - result.planning_time_s if cfg.timeout_s > 0 else np.inf
+        if result.success or not cfg.geometric_retry or getattr(backend, "mode", "") != "learned" or left < 0.1:
+            return result
+        t0 = time.perf_counter()
+        self.config = replace(cfg, timeout_s=0.0 if not np.isfinite(left) else left)
+        try:
+            with backend.geometric_only():
+                retry = self._plan_once(start_q, goal, cloud, origin)
+        finally:
+            self.config = cfg
+        spent = result.planning_time_s + (time.perf_counter() - t0)
+        retry.info["geometric_retry"] = f"after the network's {result.reason}"
+        return replace(retry, planning_time_s=spent, timings={**retry.timings, "total_s": spent})
+
+    def _plan_once(
+        self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None, origin: np.ndarray | None = None
+    ) -> PlanResult:
+        """One plan with the backend as it is (see `plan`); `cloud` (N, 3) [m] is the observed scene, seen from
+        the camera origin (3,) [m] if known.
 
         The result's info["start_refused"] says whether the start itself failed the hard check (see escape_rad).
         """

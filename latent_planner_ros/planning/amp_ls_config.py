@@ -91,6 +91,10 @@ class AmpLsConfig:
     timeout_s: float = 5.0
     """open loop: give a plan up after this wall time [s] (checked after each step; the RRT escape's budget is
     spent within it), as RRTConnect's 5 s; 0: the step budget alone (LSPP, whose plans take 5-8 s)"""
+    geometric_retry: bool = True
+    """open loop, learned backend: a plan that fails with the network is planned again with the geometric
+    backend on the same cloud, within what is left of timeout_s (the network has learned tabletops; a scene
+    unlike them, e.g. furniture in front of the robot, can defeat it where the exact check does not)"""
     shortcut: bool = True
     """open loop: shorten a successful path by straight joint-space shortcuts that pass the same hard check as
     the accepted steps (planning/shortcut.py; beyond the seed); with lazy_check, a seed reaching the goal first

@@ -7,6 +7,7 @@ sphere-vs-cloud check, so that no accepted segment passes through an observed po
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -63,6 +64,8 @@ class LearnedBackend:
         """"learned", or "geometric" while the scene lies beyond the network's box (see domain_share)"""
         self.geometric = GeometricBackend() if geometric_check else None
         self._fallback: GeometricBackend | None = None  # the geometric backend of scenes beyond the box
+        self._fallback_cloud: np.ndarray | None = None  # the cloud it holds
+        self._forced = False  # geometric_only: every scene goes to the fallback
         self.embedding: SceneEmbedding = predictor.encode(np.zeros((0, 3), dtype=np.float32))
         self._fk = TorchFK()  # every link frame, for the hard check
         self._label_frames = [LINK_FRAMES.index(name) for name in LABEL_LINKS]  # the network's links among them
@@ -117,9 +120,33 @@ class LearnedBackend:
         if self.geometric is not None:
             self.geometric.set_check_cloud(cloud)
 
+    @contextmanager
+    def geometric_only(self):
+        """Within the block, every scene is planned with the geometric backend (`mode` "geometric"): a scene set
+        then, or (an embedding) the raw cloud of the hard check; afterwards the backend is as before."""
+        saved = (self._forced, self.mode, self._fallback_cloud)
+        self._forced = True
+        if self.geometric is not None:
+            self._use_fallback(self.geometric.cloud)
+        try:
+            yield self
+        finally:
+            self._forced, self.mode = saved[0], saved[1]
+            if saved[1] == "geometric" and saved[2] is not None:
+                self._use_fallback(saved[2])
+
+    def _use_fallback(self, cloud: np.ndarray) -> None:
+        self.mode = "geometric"
+        self._fallback = self._fallback or GeometricBackend()
+        self._fallback.set_scene(cloud)
+        self._fallback_cloud = cloud
+
     def _beyond_box(self, cloud: np.ndarray) -> bool:
         """Set `mode` for cloud (N, 3) [m]; in geometric mode, give the cloud to the geometric backend."""
         enc = self.predictor.net.config.encoder
+        if self._forced:
+            self._use_fallback(cloud)
+            return True
         self.mode = "learned"
         if self.domain_share >= 1.0 or share_outside(cloud, enc.bounds_min, enc.bounds_max) <= self.domain_share:
             return False
