@@ -80,8 +80,9 @@ class StatusLine:
             err = np.linalg.norm(self.panda.fk(live.q).translation - live.target_position)
             dist = f"EE-target {100 * err:5.1f} cm"
         tick = f"{live.tick_ms:5.1f} ms" if np.isfinite(live.tick_ms) else "  n/a   "
+        state = f"{live.state} ({live.source})" if live.source else live.state
         text = (
-            f"[demo] t {t:5.1f}/{self.duration_s:g} s | {dist} | planner {live.state:<9} | tick {tick} | "
+            f"[demo] t {t:5.1f}/{self.duration_s:g} s | {dist} | planner {state:<17} | tick {tick} | "
             f"contacts {live.contacts}"
         )
         if self.tty:

@@ -65,6 +65,9 @@ class Live:
     state: str = "no status yet"
     tick_ms: float = math.nan
     contacts: int = 0
+    source: str = ""
+    """where the planner's last command came from: "plan" (a background plan followed), "local" (a latent step),
+    "wait", "hold" or "" (status `command_source`)"""
 
 
 class TrialMonitor(Node):
@@ -155,6 +158,7 @@ class TrialMonitor(Node):
             state = values.get("state", status.message.split(":")[0])
             with self._lock:
                 self.live.state, self.live.tick_ms = state, tick_ms
+                self.live.source = values.get("command_source", "")
                 if self._series is not None:
                     self._series.status.append((_seconds(msg.header.stamp), state, tick_ms, status.message))
 
