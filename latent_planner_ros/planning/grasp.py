@@ -20,6 +20,7 @@ The result is one PlanResult over the joined path; its info carries "target_poin
 from __future__ import annotations
 
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -40,6 +41,13 @@ class GraspConfig:
     """how the target is found in the cloud"""
     approach: ApproachConfig = field(default_factory=ApproachConfig)
     """the straight approach's steps and IK"""
+
+
+def _exact_check(planner):
+    """A context in which the planner's hard check is the exact geometric one (the learned backend's
+    geometric_only), or nothing to change."""
+    backend = getattr(planner, "backend", None)
+    return backend.geometric_only() if hasattr(backend, "geometric_only") else nullcontext()
 
 
 def grasp_reason(result: PlanResult) -> str:
@@ -109,8 +117,9 @@ def plan_grasp(
         )  # fmt: skip
     t = time.perf_counter()
     check = segment_check_for(planner)
-    check.set_cloud(obstacles, obstacle_origin)
-    approach = straight_approach(panda, transit.q_path[-1], goal, check, cfg.approach)
+    with _exact_check(planner):  # the approach passes 1.5 cm from surfaces: the exact check decides, not a network
+        check.set_cloud(obstacles, obstacle_origin)
+        approach = straight_approach(panda, transit.q_path[-1], goal, check, cfg.approach)
     timings["approach_s"] = time.perf_counter() - t
     info["approach"] = approach.refused or f"{len(approach.q_path)} states, {approach_m * 100:g} cm"
     q_path = np.concatenate([transit.q_path, approach.q_path])

@@ -144,3 +144,15 @@ def test_a_finger_touching_the_target_is_a_collision():
     verdict = judge.judge(sol.q[None], GOAL)
     assert verdict.collision == "obstacle"
     assert PathJudge(Scene((BOARD,)), table=True).judge(sol.q[None], GOAL).collision == ""
+
+
+def test_with_the_learned_backend_the_approach_is_checked_exactly_and_the_backend_left_as_it_was(shipped_vae):
+    from latent_planner_ros.planning.learned_backend import LearnedBackend
+
+    backend = LearnedBackend.load()
+    amp = AmpLs(shipped_vae, backend, AmpLsConfig(collision_backend="learned"))
+    cloud = np.concatenate([_surface(BOARD), _surface(OBJECT)])
+    result = plan_grasp(amp, _start(), GOAL, cloud, np.array([0.0, 0.0, 1.5]), approach_m=0.08)
+    assert result.success, result.reason
+    assert PathJudge(Scene((BOARD, OBJECT)), table=True).judge(result.q_path, GOAL).collision == ""
+    assert not backend._forced
