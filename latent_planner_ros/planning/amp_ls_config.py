@@ -128,7 +128,9 @@ class AmpLsConfig:
     geco_step_col: float = 0.05
     """GECO learning rate of lambda_col"""
     lambda_min: float = 1e-3
+    """smallest value a GECO multiplier (lambda_pos, lambda_ori, lambda_col) may take"""
     lambda_max: float = 1e3
+    """largest value a GECO multiplier may take"""
     patience: int = 60
     """stop with "no progress" after this many steps without 2 mm of improvement"""
     restarts: int = 8
