@@ -39,10 +39,12 @@ class SegmentChain:
         self.dt = float(dt)
         self.last: tuple[float, SampledTrajectory] | None = None
         """(start time [s], segment) of the last segment made"""
+        self._target: tuple[float, np.ndarray] | None = None  # (time [s], q_target (7,)) of the last segment
 
     def reset(self) -> None:
         """Forget the last segment (the next one starts at rest from the measured state)."""
         self.last = None
+        self._target = None
 
     def next(
         self, now: float, q_target: np.ndarray, q_measured: np.ndarray, limits: MotionLimits, period_s: float
@@ -59,6 +61,14 @@ class SegmentChain:
             dq, ddq = np.clip(dq, -limits.v_max, limits.v_max), np.clip(ddq, -limits.a_max, limits.a_max)
         else:
             q, dq, ddq = np.asarray(q_measured, dtype=float), np.zeros(7), np.zeros(7)
-        segment = segment_to_target(q, dq, ddq, q_target, limits, min_duration=2.0 * period_s, dt=self.dt)
+        # keep moving as the targets move: pass this target at the targets' velocity, reached in one period
+        v_target = None
+        if self._target is not None and 0.0 < now - self._target[0] <= 2.0 * period_s:
+            v_target = (np.asarray(q_target, dtype=float) - self._target[1]) / (now - self._target[0])
+        min_duration = period_s if v_target is not None else 2.0 * period_s
+        segment = segment_to_target(
+            q, dq, ddq, q_target, limits, min_duration=min_duration, dt=self.dt, v_target=v_target
+        )
         self.last = (now, segment)
+        self._target = (now, np.asarray(q_target, dtype=float).copy())
         return segment

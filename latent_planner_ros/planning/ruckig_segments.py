@@ -10,7 +10,7 @@ with `InputParameter.intermediate_positions` calls api.ruckig.com).
 from __future__ import annotations
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
+from ruckig import ControlInterface, InputParameter, Result, Ruckig, Synchronization, Trajectory
 
 from latent_planner_ros.planning.motion_limits import MotionLimits
 
@@ -49,6 +49,26 @@ def ruckig_segment(
     result = Ruckig(DOF).calculate(inp, trajectory)
     if result not in (Result.Working, Result.Finished):
         raise RuntimeError(f"ruckig failed ({result}) from q0={inp.current_position} to q1={inp.target_position}")
+    return trajectory
+
+
+def ruckig_stop(q0: np.ndarray, v0: np.ndarray, limits: MotionLimits) -> Trajectory:
+    """The time-optimal jerk-limited stop from (q0 [rad], v0 [rad/s], zero acceleration) (7,): velocity control
+    to rest; the position runs on by about v0^2 / (2 a_max)."""
+    inp = InputParameter(DOF)
+    inp.control_interface = ControlInterface.Velocity
+    inp.current_position = np.asarray(q0, dtype=float).tolist()
+    inp.current_velocity = np.asarray(v0, dtype=float).tolist()
+    inp.current_acceleration = [0.0] * DOF
+    inp.target_velocity = [0.0] * DOF
+    inp.target_acceleration = [0.0] * DOF
+    inp.max_velocity = limits.v_max.tolist()
+    inp.max_acceleration = limits.a_max.tolist()
+    inp.max_jerk = limits.j_max.tolist()
+    trajectory = Trajectory(DOF)
+    result = Ruckig(DOF).calculate(inp, trajectory)
+    if result not in (Result.Working, Result.Finished):
+        raise RuntimeError(f"ruckig failed ({result}) stopping from v0={inp.current_velocity}")
     return trajectory
 
 

@@ -54,3 +54,26 @@ def test_a_segment_ends_at_rest_on_the_target_and_a_step_from_rest_is_straight()
 def test_bad_states_are_refused():
     with pytest.raises(ValueError, match="finite"):
         segment_to_target(Q_READY, np.full(7, np.nan), np.zeros(7), Q_READY)
+
+
+def test_a_moving_target_is_passed_at_its_velocity_and_the_arm_keeps_up():
+    """With v_target (the planner's targets moving at 0.3 rad/s on one joint), the arm passes each target at that
+    velocity one period later instead of stopping at it, and would stop within the limits if no segment followed."""
+    limits = MotionLimits()
+    q, dq, ddq = Q_READY.copy(), np.zeros(7), np.zeros(7)
+    v = np.zeros(7)
+    v[3] = 0.3
+    lag = []
+    for k in range(30):
+        target = Q_READY + v * PERIOD * (k + 1)
+        seg = segment_to_target(q, dq, ddq, target, limits, min_duration=PERIOD, dt=DT, v_target=v)
+        np.testing.assert_allclose(seg.positions[0], q, atol=1e-12)
+        np.testing.assert_allclose(seg.velocities[0], dq, atol=1e-9)
+        assert np.all(np.abs(seg.velocities) <= limits.v_max + 1e-9)
+        assert np.all(np.abs(seg.accelerations) <= limits.a_max + 1e-6)
+        np.testing.assert_allclose(seg.velocities[-1], 0.0, atol=1e-9)  # a planner that stops leaves it at rest
+        i = int(round(PERIOD / DT))
+        q, dq, ddq = seg.positions[i], seg.velocities[i], seg.accelerations[i]
+        lag.append(float(np.abs(target - q).max()))
+    assert max(lag[-10:]) < 0.005  # keeps up with the targets once up to speed (at rest on each: 0.015+)
+    np.testing.assert_allclose(dq[3], 0.3, atol=0.01)
