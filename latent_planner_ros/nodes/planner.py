@@ -46,7 +46,6 @@ from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Header
@@ -62,6 +61,7 @@ from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
 from latent_planner_ros.nodes.segment_chain import SegmentChain
+from latent_planner_ros.nodes.service_thread import ServiceThread
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from latent_planner_ros.perception.frames import path_to_world
 from latent_planner_ros.perception.scene_input import limit_points
@@ -110,12 +110,11 @@ class PlannerNode(Node):
         super().__init__("planner")
         torch.set_num_threads(1)  # small batches: threads only add contention with the sim and the encoder
         sys.setswitchinterval(0.001)  # a background plan holds the GIL for at most 1 ms at a time, not 5
-        # the control loop and its inputs in one group; ~/plan in another (it plans while the loop ticks), parameter
-        # rebuilds in the default group; _lock guards the state they share (held briefly, never while planning)
+        # the control loop, its inputs and parameter changes on the node's executor; ~/plan and ~/plan_grasp on a
+        # thread of their own (nodes/service_thread.py: they plan while the loop ticks); _lock guards the state
+        # they share (held briefly, never while planning)
         self._lock = threading.RLock()
         self._plan_lock = threading.Lock()  # one plan at a time on the planning instance
-        self._control = MutuallyExclusiveCallbackGroup()
-        self._planning = MutuallyExclusiveCallbackGroup()
         params = ConfigParams(self, PlannerNodeConfig, ranges=RANGES, read_only=READ_ONLY)
         self.config = params.config
         self.frames, self.joint_names = self.config.frames.frames(), self.config.frames.joint_names
@@ -141,30 +140,33 @@ class PlannerNode(Node):
         self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
         self.pub_plan_result = self.create_publisher(DiagnosticStatus, "~/plan_result", 10)
         self.pub_diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        group = {"callback_group": self._control}
-        self.create_subscription(JointState, "joint_states", self._on_joint_states, 10, **group)
-        self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10, **group)
+        self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
+        self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10)
         for cloud_topic in self.config.cloud_topics:
-            self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2, **group)
-        self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, 10, **group)
+            self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2)
+        self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, 10)
         if self.config.amp_ls.collision_backend == "learned":
-            self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2, **group)
-        self.create_service(GetPlan, "~/plan", self._on_plan, callback_group=self._planning)
-        grasp = partial(self._on_plan, grasp=True)
-        self.create_service(GetPlan, "~/plan_grasp", grasp, callback_group=self._planning)
-        self.create_service(SetBool, "~/enable", self._on_enable, **group)
+            self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2)
+        self.service_thread = ServiceThread(self)
+        self.service_thread.create_service(GetPlan, "~/plan", self._on_plan)
+        self.service_thread.create_service(GetPlan, "~/plan_grasp", partial(self._on_plan, grasp=True))
+        self.create_service(SetBool, "~/enable", self._on_enable)
         self.segments = SegmentChain()
         pub_owner = self.create_publisher(Header, "execution_owner", OWNER_QOS)
         self.owner = ExecutionOwner(self.get_fully_qualified_name(), pub_owner.publish, self._on_preempted)
-        self.create_subscription(Header, "execution_owner", self.owner.on_claim, OWNER_QOS, **group)
+        self.create_subscription(Header, "execution_owner", self.owner.on_claim, OWNER_QOS)
         if self.config.enabled:
             self.owner.claim()
-        self._tick_timer = self.create_timer(1.0 / self.config.closed_loop.rate_hz, self._on_tick, **group)
-        self._status_timer = self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status, **group)
+        self._tick_timer = self.create_timer(1.0 / self.config.closed_loop.rate_hz, self._on_tick)
+        self._status_timer = self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)
         self.get_logger().info(
             f"AMP-LS ready: backend {self.config.amp_ls.collision_backend} (LSPP on cylinder obstacles), "
             f"{self.config.closed_loop.rate_hz:.0f} Hz, enabled={self.config.enabled}"
         )
+
+    def destroy_node(self) -> None:
+        self.service_thread.close()
+        super().destroy_node()
 
     def _make_modes(self, config: PlannerNodeConfig, vae) -> tuple[PlannerModes, AmpLs]:
         """The AMP-LS and LSPP closed loops, and the AMP-LS instance that plans (the closed loop's background plans
@@ -234,7 +236,7 @@ class PlannerNode(Node):
     def _replace_timer(self, timer, rate_hz: float, callback):
         timer.cancel()
         self.destroy_timer(timer)
-        return self.create_timer(1.0 / rate_hz, callback, callback_group=self._control)
+        return self.create_timer(1.0 / rate_hz, callback)
 
     # -- inputs -------------------------------------------------------------------------------------
     @_locked
@@ -493,7 +495,7 @@ class PlannerNode(Node):
 
 
 def main() -> int:
-    return run_node("planner", PlannerNode, (CheckpointError, ConfigError, ValueError), threads=3)
+    return run_node("planner", PlannerNode, (CheckpointError, ConfigError, ValueError))
 
 
 if __name__ == "__main__":
