@@ -202,7 +202,9 @@ class OmplPlannerNode(Node):
         self._execution_end = None  # a valid new request ends the watch over the previous execution
         self._state = "planning"
         if grasp:
-            result = plan_grasp(self.planner, q, goal, fused.points, None, approach_m=self.config.grasp_approach_m)
+            radius = self.config.grasp_target_radius_m or None
+            approach = self.config.grasp_approach_m
+            result = plan_grasp(self.planner, q, goal, fused.points, None, approach, target_radius=radius)
         else:
             result = self.planner.plan(q, goal, fused.points if fused.sources else None)
         reason = grasp_reason(result) if grasp else result.reason

@@ -34,6 +34,9 @@ class OmplPlannerNodeConfig:
     grasp_approach_m: float = 0.08
     """[m] ~/plan_grasp: plan to the pre-grasp this far back along the hand's z axis, then approach straight
     (planning/grasp.py, as the planner node); 0 = plan to the grasp directly, target points set aside"""
+    grasp_target_radius_m: float = 0.0
+    """[m] ~/plan_grasp: the target is every cloud point within this of the grasp goal's TCP; 0 = find the object
+    in the cloud (the closing region's points grown through connected points, perception/grasp_target.py)"""
     frames: FramesConfig = field(default_factory=FramesConfig)
     limits: MotionLimits = field(default_factory=MotionLimits)
     """fractions of the Panda's velocity, acceleration and jerk limits the plans' trajectories use"""
@@ -50,6 +53,7 @@ class OmplPlannerNodeConfig:
         check_topics("cloud_topics", self.cloud_topics)
         check_number("cloud_max_age_s", self.cloud_max_age_s, 0.0, 3600.0)
         check_number("grasp_approach_m", self.grasp_approach_m, 0.0, 0.3)
+        check_number("grasp_target_radius_m", self.grasp_target_radius_m, 0.0, 0.2)
 
 
 RANGES = {
@@ -61,6 +65,7 @@ RANGES = {
         "status_rate_hz": "(0, 100]",
         "cloud_max_age_s": "[0, 3600]",
         "grasp_approach_m": "[0, 0.3]",
+        "grasp_target_radius_m": "[0, 0.2]",
     },
 }
 """Valid ranges of the ompl_planner's parameters, as the validation enforces them."""

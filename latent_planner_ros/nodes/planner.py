@@ -440,7 +440,9 @@ class PlannerNode(Node):
         if grasp:
             with self._plan_lock:
                 q, cloud = plan_request.q, plan_request.cloud
-                result = plan_grasp(planner, q, goal, cloud, None, approach_m=self.config.grasp_approach_m)
+                cfg = self.config
+                radius = cfg.grasp_target_radius_m or None
+                result = plan_grasp(planner, q, goal, cloud, None, cfg.grasp_approach_m, target_radius=radius)
         elif lspp:
             with self._lock:
                 result = planner.plan(plan_request.q, goal, plan_request.scene)

@@ -48,6 +48,9 @@ class PlannerNodeConfig:
     grasp_approach_m: float = 0.08
     """[m] ~/plan_grasp: plan to the pre-grasp this far back along the hand's z axis, then approach straight
     (planning/grasp.py); 0 = plan to the grasp directly, target points set aside"""
+    grasp_target_radius_m: float = 0.0
+    """[m] ~/plan_grasp: the target is every cloud point within this of the grasp goal's TCP; 0 = find the object
+    in the cloud (the closing region's points grown through connected points, perception/grasp_target.py)"""
     frames: FramesConfig = field(default_factory=FramesConfig)
     limits: MotionLimits = field(default_factory=MotionLimits)
     """fractions of the Panda's velocity, acceleration and jerk limits the published trajectories use (the closed
@@ -67,6 +70,9 @@ class PlannerNodeConfig:
             check_topics("cloud_topics", self.cloud_topics)
         except ConfigError as err:
             raise ValueError(str(err)) from None
+        r = self.grasp_target_radius_m
+        if not (isinstance(r, int | float) and not isinstance(r, bool) and math.isfinite(r) and 0 <= r <= 0.2):
+            raise ValueError(f"grasp_target_radius_m must be a number in [0, 0.2], got {r!r}")
         g = self.grasp_approach_m
         if not (isinstance(g, int | float) and not isinstance(g, bool) and math.isfinite(g) and 0 <= g <= 0.3):
             raise ValueError(f"grasp_approach_m must be a number in [0, 0.3], got {g!r}")
@@ -97,6 +103,7 @@ RANGES = {
         "status_rate_hz": "(0, 100]",
         "cloud_max_age_s": "[0, 3600]",
         "grasp_approach_m": "[0, 0.3]",
+        "grasp_target_radius_m": "[0, 0.2]",
     },
 }
 """Valid ranges of the planner's parameters (sim_bridge/param_specs.py), as the validation enforces them."""

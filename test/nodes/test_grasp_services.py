@@ -77,7 +77,8 @@ def test_both_planner_nodes_answer_a_grasp_goal(tmp_path):
     np.savez(inputs, cloud=cloud, start=_start(), goal_position=GOAL.position, goal_rotation=GOAL.rotation)
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     planner = ["--params-file", "config/planner.yaml", "-p", "amp_ls.collision_backend:=geometric"]
-    procs = [_run("planner", planner, env), _run("ompl_planner", ["--params-file", "config/ompl_planner.yaml"], env)]
+    ompl = ["--params-file", "config/ompl_planner.yaml", "-p", "grasp_target_radius_m:=0.06"]  # a caller's radius
+    procs = [_run("planner", planner, env), _run("ompl_planner", ompl, env)]
     try:
         probe = subprocess.run(
             [sys.executable, "-c", PROBE, str(inputs)], cwd=REPO, env=env, capture_output=True, text=True, timeout=300
@@ -91,4 +92,5 @@ def test_both_planner_nodes_answer_a_grasp_goal(tmp_path):
         r = out[name]
         assert r["poses"] > 1 and r["end_err"] < 0.01, (name, r, logs[-3000:])
         assert r["result"].startswith("reached") and "target points set aside" in r["result"], (name, r)
-        assert int(r["result"].split("grasp: ")[1].split()[0]) > 500, r  # the object's points, not the board's
+        points = int(r["result"].split("grasp: ")[1].split()[0])
+        assert points > (500 if name == "planner" else 300), r  # the object's points (found, or within 6 cm)
