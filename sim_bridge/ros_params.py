@@ -102,7 +102,10 @@ class ConfigParams:
                 overrides[spec.name] = Parameter(spec.name, TYPES[spec.type], value)
             try:
                 node.declare_parameter(spec.name, spec.value, descriptor(spec))
-            except (InvalidParameterValueException, InvalidParameterTypeException) as err:  # e.g. out of its range
+            except InvalidParameterValueException:  # outside the descriptor's range
+                value = overrides[spec.name].value if spec.name in overrides else spec.value
+                raise ConfigError(f"{spec.name}: {value!r} is outside its valid range {spec.range}") from None
+            except InvalidParameterTypeException as err:
                 raise ConfigError(f"{spec.name}: {err}") from None
         self.config = from_params(config_cls, self.values())
         node.add_pre_set_parameters_callback(self._pre_set)

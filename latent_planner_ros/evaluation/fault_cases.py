@@ -205,16 +205,16 @@ def joint_states_silent(ctx: Ctx) -> None:
 
 PLANNER_BAD_PARAMS = (
     ("closed_loop.rate_hz", -1.0, "rate_hz must be a positive finite number"),
-    ("closed_loop.rate_hz", "fast", "rate_hz must be a positive finite number, got 'fast'"),
-    ("closed_loop.max_iterations_per_tick", 0, "max_iterations_per_tick must be an integer in [1, 100]"),
+    ("closed_loop.rate_hz", "fast", "closed_loop.rate_hz: expected double, got string 'fast'"),
+    ("closed_loop.max_iterations_per_tick", 0, "closed_loop.max_iterations_per_tick out of range"),
     ("amp_ls.lr", float("nan"), "lr must be a positive finite number"),
     ("amp_ls.collision_backend", "bogus", "collision_backend must be one of"),
     ("status_rate_hz", 0.0, "status_rate_hz must be in (0, 100]"),
     ("vae_checkpoint", "/nonexistent/vae", "checkpoint file missing"),
 )
 ENCODER_BAD_PARAMS = (
-    ("max_points", -1, "max_points: expected an integer"),
-    ("downsample_voxel", 5.0, "downsample_voxel: expected a number in"),
+    ("max_points", -1, "max_points out of range"),
+    ("downsample_voxel", 5.0, "downsample_voxel out of range"),
     ("checkpoint", "/nonexistent/collision", "checkpoint file missing"),
 )
 

@@ -47,7 +47,7 @@ def startup_cases(tmp: Path) -> dict[str, tuple[str, list[str], str]]:
         "startup_encoder_wrong_checkpoint": ("scene_encoder", [f"checkpoint:={vae}"], "is not a collision network"),
         "startup_planner_bad_rate": ("planner", ["closed_loop.rate_hz:=-5.0"], "rate_hz must be a positive"),
         "startup_planner_bad_backend": ("planner", ["amp_ls.collision_backend:=bogus"], "collision_backend must be"),
-        "startup_encoder_bad_max_points": ("scene_encoder", ["max_points:=0"], "max_points: expected an integer"),
+        "startup_encoder_bad_max_points": ("scene_encoder", ["max_points:=0"], "max_points: 0 is outside its"),
         "startup_sim_bad_timestep": ("sim", ["timestep:=-0.002"], "timestep"),
         "startup_sim_missing_scenario": ("sim", ["scenario:=/nonexistent/scene.yaml"], "nonexistent"),
     }

@@ -44,6 +44,7 @@ class PlanFollower:
         self._requested: np.ndarray | None = None  # goal position (3,) [m] of the newest request
         self._requested_at = -np.inf  # [s]
         self._answered = True  # the newest request has its outcome
+        self._retry = False  # the newest request re-plans a goal planned before
         self._stream: TrajectoryStreamer | None = None
         self._plan_goal: np.ndarray | None = None  # goal position (3,) [m] the followed path was planned for
         self.escape_from: np.ndarray | None = None  # the followed path's start (7,) [rad] when the check refused it
@@ -61,8 +62,9 @@ class PlanFollower:
         return "" if s is None else f"{s.t:.1f}/{s.duration:.1f} s"
 
     def waiting(self, now: float) -> bool:
-        """A plan for the current goal was requested less than plan_wait_s ago and has not arrived: hold."""
-        return not self._answered and now - self._requested_at < self.plan_wait_s
+        """The plan of a new goal was requested less than plan_wait_s ago and has not arrived: hold. (While a
+        re-plan runs the loop steps locally, and its no-progress watchdog keeps counting.)"""
+        return not self._answered and not self._retry and now - self._requested_at < self.plan_wait_s
 
     def forget(self) -> None:
         """Drop the path and forget the requests (a cleared goal, a disabled loop): outcomes still running are
@@ -93,6 +95,7 @@ class PlanFollower:
         new_goal = self._requested is None or np.linalg.norm(goal.position - self._requested) > self.follow_goal_tol_m
         retry = now - self._requested_at > self.replan_after_s and stalled_s > self.replan_after_s
         if new_goal or retry:
+            self._retry = not new_goal
             self._ident += 1
             self._requested, self._requested_at, self._answered = goal.position.copy(), now, False
             self.plans["requested"] += 1
