@@ -415,7 +415,7 @@ def test_scene_encoder_fuses_two_cameras_and_refuses_a_cloud_in_another_frame(tm
 
     wrong = result["wrong_frame"]
     assert wrong["level"] == 2
-    assert "left/points refused: frame 'left_optical_frame', expected 'world'" in wrong["last_error"]
+    assert "left/points refused: frame 'left_optical_frame' has no transform to 'panda_link0'" in wrong["last_error"]
     assert "left_optical_frame" in log, "the refusal is logged"
     stale = result["stale"]
     assert "left/points (2.00 s behind)" in stale["clouds_stale"] and "stale" in stale["message"]

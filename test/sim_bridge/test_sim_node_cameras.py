@@ -106,4 +106,4 @@ def test_sim_node_publishes_every_cameras_cloud_and_pose():
     np.testing.assert_allclose(out["shelf_side"]["position"], [0.55, -1.2, 0.5], atol=1e-5)
     assert not out["bad_left"][0] and "left.fovy" in out["bad_left"][1]
     assert out["good_left"][0]
-    assert not out["cameras_change"][0] and "fixed at start-up" in out["cameras_change"][1]
+    assert not out["cameras_change"][0] and "read-only parameter: cameras" in out["cameras_change"][1]
