@@ -12,18 +12,13 @@ import sys
 from collections.abc import Callable
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import ExternalShutdownException
 from rclpy.logging import get_logger
 from rclpy.node import Node
 
 
-def run_node(
-    name: str, factory: Callable[[], Node], startup_errors: tuple[type[BaseException], ...], threads: int = 1
-) -> int:
+def run_node(name: str, factory: Callable[[], Node], startup_errors: tuple[type[BaseException], ...]) -> int:
     """Create the node with `factory` and spin it until shutdown; the process exit code.
-
-    threads > 1 spins a MultiThreadedExecutor with that many threads (callbacks of different callback groups run
-    at the same time: the planner keeps its control loop ticking while it plans).
 
     An error in `startup_errors` while creating the node (a bad parameter, a missing checkpoint) is logged as
     "cannot start: ..." and gives exit code 2; Ctrl-C or an external shutdown gives 0. Any other error is
@@ -38,7 +33,7 @@ def run_node(
         except startup_errors as err:
             get_logger(name).error(f"cannot start: {err}")
             return 2
-        rclpy.spin(node, executor=MultiThreadedExecutor(threads) if threads > 1 else None)
+        rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception:
