@@ -4,6 +4,7 @@ imports, and no ROS 2 package it does not."""
 from __future__ import annotations
 
 import ast
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -20,8 +21,14 @@ ROSDEP_KEYS = {
     "yaml": "python3-yaml",
     "matplotlib": "python3-matplotlib",
     "tqdm": "python3-tqdm",
+    "imageio": "python3-imageio",
+    "open3d": "python3-open3d-pip",
 }
 """Imported module -> its rosdep key, for the libraries package.xml declares as rosdep keys."""
+REQUIREMENT_MODULES = {"pyyaml": "yaml", "pin": "pinocchio"}
+"""requirements.txt name -> imported module, where they differ."""
+TOOLING = ("ros-jazzy-", "setuptools", "colcon-", "pytest", "ruff")
+"""requirements.txt entries that are ROS itself (pip wheels) or build and test tools, not runtime libraries."""
 
 
 def imported_modules() -> set[str]:
@@ -79,3 +86,15 @@ def test_rosdep_keyed_libraries_are_declared(manifest):
     imported = imported_modules()
     missing = {key for module, key in ROSDEP_KEYS.items() if module in imported} - exec_depends(manifest)
     assert not missing, f"imported libraries without their rosdep key in package.xml: {sorted(missing)}"
+
+
+def test_every_pip_requirement_is_a_rosdep_key_or_named_in_the_manifest(manifest):
+    """A runtime library of requirements.txt is declared by its rosdep key, or package.xml says why not."""
+    names = [line.split("==")[0].split("[")[0].strip() for line in (REPO / "requirements.txt").read_text().splitlines()]
+    runtime = [n for n in names if n and not n.startswith("#") and not n.startswith(TOOLING)]
+    assert {"torch", "ruckig", "numpy"} <= set(runtime)
+    comments = " ".join(re.findall(r"<!--(.*?)-->", (REPO / "package.xml").read_text(), re.S))
+    declared = exec_depends(manifest)
+    for name in runtime:
+        key = ROSDEP_KEYS.get(REQUIREMENT_MODULES.get(name, name))
+        assert (key in declared) if key else (name in comments), f"{name}: neither its rosdep key nor a reason"
