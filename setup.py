@@ -39,6 +39,8 @@ setup(
         (f"share/{PACKAGE}/bench/scenarios", glob(f"{PACKAGE}/bench/scenarios/*.json")),
     ],
     install_requires=["setuptools"],
+    # Ray for running the batch commands on a cluster (--cluster; docs/cluster.md), imported only then.
+    extras_require={"cluster": ["ray==2.60.0"]},
     zip_safe=False,
     maintainer="latent_planner_ros maintainers",
     maintainer_email="maintainers@latent-planner.dev",

@@ -30,4 +30,6 @@ fi
 echo "[setup] installing Python packages (requirements.txt)"
 "$VENV/bin/python" -m pip install -q -r requirements.txt
 "$VENV/bin/python" -m pip install -q --no-deps --no-build-isolation -e .
+echo "[setup] installing the cluster extra (requirements-cluster.txt: Ray, for --cluster and its tests)"
+"$VENV/bin/python" -m pip install -q -r requirements-cluster.txt
 echo "[setup] done: $VENV"

@@ -13,9 +13,11 @@ collision.
 
     python -m latent_planner_ros bench table --out bench_out/table [--scenarios FILE] [--scenes N]
         [--planners amp_ls,rrtconnect,...] [--backend auto|learned|geometric] [--workers 2] [--minutes M]
+        [--cluster auto|ADDRESS]
 
-Problems run in `--workers` processes (one torch thread each); a planner's time is the wall-clock time of its
-`plan` call. Budgets: see bench/table_planners.py.
+Problems run in `--workers` processes (one torch thread each), or one Ray task each with --cluster
+(batch/executor.py, docs/cluster.md); a planner's time is the wall-clock time of its `plan` call. Budgets: see
+bench/table_planners.py.
 """
 
 from __future__ import annotations
@@ -23,17 +25,16 @@ from __future__ import annotations
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
+from latent_planner_ros.batch.executor import Executor, ExecutorConfig, Job, add_executor_args, executor_config
 from latent_planner_ros.bench.report import bench_parser, write_report
 from latent_planner_ros.bench.scenarios import DEFAULT_SET, ScenarioError, ScenarioProblem, load_scenarios
 from latent_planner_ros.bench.table_planners import AMP_LS_VARIANTS, amp_ls_config, budgets, ompl_config, parse_planners
 from latent_planner_ros.bench.table_report import figures, markdown, summarise
-from latent_planner_ros.bench.workers import exit_with_parent
 from latent_planner_ros.data.camera import CameraConfig, planning_crop, sample_camera_pose
 
 POS_TOL = 0.01
@@ -210,19 +211,13 @@ class TableRunner:
         return rows
 
 
-_RUNNER: TableRunner | None = None
-
-
-def _init_worker(names: list[str], backend: str, table: bool, threads: int, checkpoint: str) -> None:
-    global _RUNNER
-    exit_with_parent()
+def _make_runner(names: list[str], backend: str, table: bool, threads: int, checkpoint: str) -> TableRunner:
     os.environ.setdefault("OMP_NUM_THREADS", str(threads))
-    _RUNNER = TableRunner(names, backend, table, threads, checkpoint)
+    return TableRunner(names, backend, table, threads, checkpoint)
 
 
-def _run_in_worker(index: int, problem: ScenarioProblem, deadline: float) -> list[dict]:
-    assert _RUNNER is not None
-    return _RUNNER.run(index, problem) if time.time() < deadline else []
+def _run_problem(runner: TableRunner, index: int, problem: ScenarioProblem, deadline: float) -> list[dict]:
+    return runner.run(index, problem) if time.time() < deadline else []
 
 
 def run_table(
@@ -234,32 +229,22 @@ def run_table(
     threads: int = 1,
     checkpoint: str = "",
     minutes: float = 0.0,
+    executor: Executor | None = None,
 ) -> list[dict]:
-    """Rows of every planner on every problem (sorted by problem, then table order).
+    """Rows of every planner on every problem (sorted by problem, then table order), one task per problem on
+    `executor` (default: `workers` local processes; each worker builds the planners once).
 
     With `minutes` > 0, problems not started within that wall time [min] are skipped (every planner runs on
     every problem that is started, so the comparison stays on the same problems).
     """
     deadline = time.time() + 60.0 * minutes if minutes > 0 else float("inf")
+    job = Job(_run_problem, _make_runner, (names, backend, table, threads, checkpoint))
     rows: list[dict] = []
     bar = tqdm(total=len(problems), desc="bench table", unit="problem", dynamic_ncols=True)
-    if workers <= 1:
-        runner = TableRunner(names, backend, table, threads, checkpoint)
-        for i, p in enumerate(problems):
-            if time.time() < deadline:
-                rows += runner.run(i, p)
-            bar.update()
-    else:
-        import multiprocessing as mp
-
-        ctx = mp.get_context("spawn")
-        with ProcessPoolExecutor(
-            workers, ctx, initializer=_init_worker, initargs=(names, backend, table, threads, checkpoint)
-        ) as ex:
-            futures = [ex.submit(_run_in_worker, i, p, deadline) for i, p in enumerate(problems)]
-            for f in as_completed(futures):
-                rows += f.result()
-                bar.update()
+    ex = executor or Executor(ExecutorConfig(workers=workers))  # local processes hold nothing to close
+    for _, problem_rows in ex.map(job, [(i, p, deadline) for i, p in enumerate(problems)]):
+        rows += problem_rows
+        bar.update()
     bar.close()
     order = {n: k for k, n in enumerate(names)}
     return sorted(rows, key=lambda r: (r["problem"], order[r["planner"]]))
@@ -286,6 +271,7 @@ def main(argv: list[str]) -> int:
     p.add_argument("--collision-checkpoint", default="", help="learned backend weights (stem; default: shipped)")
     p.add_argument("--workers", type=int, default=2, help="processes (default 2: both cores)")
     p.add_argument("--minutes", type=float, default=0.0, help="wall-time budget: skip problems not started by then")
+    add_executor_args(p)
     p.add_argument("--threads", type=int, default=1, help="torch threads per process")
     args = p.parse_args(argv)
     try:
@@ -307,9 +293,11 @@ def main(argv: list[str]) -> int:
         print(f"bench table: {err}", file=sys.stderr)
         return 2
     problems = list(scenarios.problems)
-    rows = run_table(
-        problems, names, backend, scenarios.table, args.workers, args.threads, args.collision_checkpoint, args.minutes
-    )
+    with Executor(executor_config(args)) as ex:
+        rows = run_table(
+            problems, names, backend, scenarios.table, threads=args.threads, checkpoint=args.collision_checkpoint,
+            minutes=args.minutes, executor=ex,
+        )  # fmt: skip
     done = sorted({r["problem"] for r in rows})
     if len(done) < len(problems):
         notes.append(f"wall-time budget {args.minutes:g} min: {len(done)} of {len(problems)} problems run ({done})")
@@ -327,6 +315,8 @@ def main(argv: list[str]) -> int:
         "tolerance": {"position_m": POS_TOL, "orientation_deg": ORI_TOL_DEG},
         "budgets": budgets(),
         "workers": args.workers,
+        "executor": ex.name,
+        "cluster": args.cluster,
         "notes": notes,
         "rows": rows,
     }
