@@ -79,11 +79,11 @@ def _marker_cylinder(m: Marker, tilt_tol_deg: float, z_tol_m: float) -> np.ndarr
         raise AdapterError(f"{what}: scale must be positive (diameter x, y and height z), got {s.x}, {s.y}, {s.z}")
     if abs(s.x - s.y) > 1e-3:
         raise AdapterError(f"{what}: scale.x and scale.y (diameters) must be equal, got {s.x} and {s.y}")
-    norm = math.sqrt(o.x**2 + o.y**2 + o.z**2 + o.w**2)
+    norm = math.hypot(o.x, o.y, o.z, o.w)  # hypot: no overflow for huge components (1e200 ** 2 raises)
     if norm < 1e-9:
         raise AdapterError(f"{what}: orientation quaternion has zero norm")
     # the marker's axis is the rotated z axis; its world z component is R[2, 2] = 1 - 2 (x^2 + y^2) (unit q)
-    cos_tilt = 1.0 - 2.0 * (o.x**2 + o.y**2) / norm**2
+    cos_tilt = 1.0 - 2.0 * (math.hypot(o.x, o.y) / norm) ** 2
     tilt_deg = math.degrees(math.acos(min(1.0, max(-1.0, cos_tilt))))
     if tilt_deg > tilt_tol_deg:
         raise AdapterError(f"{what}: axis tilted {tilt_deg:.1f} deg from vertical (at most {tilt_tol_deg} deg)")

@@ -44,10 +44,12 @@ def _unit_quaternion(quat, what: str) -> np.ndarray:
         raise AdapterError(f"{what}: expected 4 components (x, y, z, w), got shape {q.shape}")
     if not np.all(np.isfinite(q)):
         raise AdapterError(f"{what} has NaN or inf components: {q.tolist()}")
-    norm = float(np.linalg.norm(q))
+    scale = float(np.max(np.abs(q)))  # huge components would overflow the norm (1e200 ** 2 = inf)
+    unit = q / scale if scale > 0.0 else q
+    norm = scale * float(np.linalg.norm(unit))
     if norm < _MIN_QUAT_NORM:
         raise AdapterError(f"{what} has zero norm")
-    return q / norm
+    return unit / np.linalg.norm(unit)
 
 
 def pose_stamped_to_target(msg: PoseStamped, expected_frame: str | None = "world") -> PoseTarget:
