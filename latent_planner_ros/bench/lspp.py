@@ -9,20 +9,21 @@ between checks, touches no cylinder, nor the table, nor itself (exact coal meshe
 
     python -m latent_planner_ros bench lspp --out DIR [--scenes N] [--obstacles 1,2,3,4,5]
         [--planners lspp,lspp_seed,rrtconnect,potential_field] [--workers 2] [--scenarios FILE]
+        [--cluster auto|ADDRESS]
 
-Problems run in --workers processes (one torch thread each); times are wall clock of each `plan` call.
+Problems run in --workers processes (one torch thread each), or one Ray task each with --cluster
+(batch/executor.py, docs/cluster.md); times are wall clock of each `plan` call.
 """
 
 from __future__ import annotations
 
-import os
 import sys
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
+from latent_planner_ros.batch.executor import Executor, ExecutorConfig, Job, add_executor_args, executor_config
 from latent_planner_ros.bench.lspp_planners import ALL_PLANNERS, DEFAULT_PLANNERS, build_planners
 from latent_planner_ros.bench.lspp_report import figures, markdown
 from latent_planner_ros.bench.lspp_scenarios import (
@@ -34,7 +35,6 @@ from latent_planner_ros.bench.lspp_scenarios import (
 )
 from latent_planner_ros.bench.report import bench_parser, write_report
 from latent_planner_ros.bench.table_report import summarise
-from latent_planner_ros.bench.workers import exit_with_parent
 
 SCENARIO_SEED = 2022
 """seed of the generated scenarios (the classifier's training data are seeds 1 and 2 of random pairs)"""
@@ -78,19 +78,8 @@ class LsppRunner:
         return rows
 
 
-_RUNNER: LsppRunner | None = None
-
-
-def _init_worker(names: list[str], threads: int, classifier: str, lspp_overrides: dict) -> None:
-    global _RUNNER
-    exit_with_parent()
-    os.environ.setdefault("OMP_NUM_THREADS", str(threads))
-    _RUNNER = LsppRunner(names, threads, classifier, lspp_overrides)
-
-
-def _run_in_worker(k: int, index: int, sc: LsppScenario) -> list[dict]:
-    assert _RUNNER is not None
-    return _RUNNER.run(k, index, sc)
+def _run_scenario(runner: LsppRunner, k: int, index: int, sc: LsppScenario) -> list[dict]:
+    return runner.run(k, index, sc)
 
 
 def run_lspp(
@@ -99,33 +88,26 @@ def run_lspp(
     workers: int = 2,
     classifier: str = "",
     lspp_overrides: dict | None = None,
+    executor: Executor | None = None,
 ) -> list[dict]:
-    """Rows of every planner on every scenario, sorted by obstacle count, scenario and planner order.
+    """Rows of every planner on every scenario, sorted by obstacle count, scenario and planner order; one task
+    per scenario on `executor` (default: `workers` local processes; each worker builds the planners once).
 
     lspp_overrides: AmpLsConfig fields changed in the `lspp` row (e.g. {"n_seeds": 8, "restarts": 48})."""
     lspp_overrides = lspp_overrides or {}
     tasks = [(k, i, sc) for k, scs in sorted(scenarios.items()) for i, sc in enumerate(scs)]
+    job = Job(_run_scenario, LsppRunner, (names, 1, classifier, lspp_overrides))
     rows: list[dict] = []
     bar = tqdm(total=len(tasks), desc="bench lspp", unit="scenario", dynamic_ncols=True)
-    if workers <= 1:
-        runner = LsppRunner(names, 1, classifier, lspp_overrides)
-        for t in tasks:
-            rows += runner.run(*t)
-            bar.update()
-    else:
-        import multiprocessing as mp
-
-        with ProcessPoolExecutor(workers, mp.get_context("spawn"), initializer=_init_worker,
-                                 initargs=(names, 1, classifier, lspp_overrides)) as ex:  # fmt: skip
-            for f in as_completed([ex.submit(_run_in_worker, *t) for t in tasks]):
-                rows += f.result()
-                bar.update()
+    for _, scenario_rows in (executor or Executor(ExecutorConfig(workers=workers))).map(job, tasks):
+        rows += scenario_rows
+        bar.update()
     bar.close()
     order = {n: j for j, n in enumerate(names)}
     return sorted(rows, key=lambda r: (r["obstacles"], r["problem"], order[r["planner"]]))
 
 
-def _scenarios(args, counts: list[int]) -> dict[int, list[LsppScenario]]:
+def _scenarios(args, counts: list[int], executor: Executor) -> dict[int, list[LsppScenario]]:
     """From --scenarios, else generated (cached in OUT/lspp_scenarios.json for the same counts, n and seed)."""
     if args.scenarios:
         have, _ = load_scenarios(args.scenarios)
@@ -137,7 +119,7 @@ def _scenarios(args, counts: list[int]) -> dict[int, list[LsppScenario]]:
         if old == meta:
             return have
 
-    scenarios = generate_scenarios(counts, args.scenes, args.seed, workers=args.workers)
+    scenarios = generate_scenarios(counts, args.scenes, args.seed, executor=executor)
     save_scenarios(cache, scenarios, meta)
     return scenarios
 
@@ -171,6 +153,7 @@ def main(argv: list[str]) -> int:
     p.add_argument("--obstacles", default="1,2,3,4,5", help="obstacle counts (default 1,2,3,4,5)")
     p.add_argument("--planners", default=",".join(DEFAULT_PLANNERS), help=f"from {', '.join(ALL_PLANNERS)}")
     p.add_argument("--workers", type=int, default=2, help="processes (default 2: both cores)")
+    add_executor_args(p)
     p.add_argument("--scenarios", type=Path, default=None, help="scenario file (as written to OUT/lspp_scenarios.json)")
     p.add_argument("--seed", type=int, default=SCENARIO_SEED, help="seed of generated scenarios")
     p.add_argument("--classifier", default="", help="LSPP classifier checkpoint stem (default: the shipped one)")
@@ -197,8 +180,9 @@ def main(argv: list[str]) -> int:
         print(f"bench lspp: {err}", file=sys.stderr)
         return 2
     args.out.mkdir(parents=True, exist_ok=True)
-    scenarios = _scenarios(args, counts)
-    rows = run_lspp(scenarios, names, args.workers, args.classifier, overrides)
+    with Executor(executor_config(args)) as ex:
+        scenarios = _scenarios(args, counts, ex)
+        rows = run_lspp(scenarios, names, classifier=args.classifier, lspp_overrides=overrides, executor=ex)
     results = {
         "obstacles": {str(k): summarise([r for r in rows if r["obstacles"] == k], names) for k in sorted(scenarios)},
         "scenes_per_count": {str(k): len(v) for k, v in scenarios.items()},
@@ -207,6 +191,8 @@ def main(argv: list[str]) -> int:
         "scenario_seed": args.seed,
         "lspp_overrides": overrides,
         "workers": args.workers,
+        "executor": ex.name,
+        "cluster": args.cluster,
         "rows": rows,
     }
     write_report(args.out, "lspp", results, markdown(results), figures(results), argv)

@@ -112,26 +112,24 @@ def _draw_count(k: int, n: int, seed: int, vae=None, progress: bool = False) -> 
 
 
 def generate_scenarios(
-    counts: list[int], n: int, seed: int, vae=None, progress: bool = True, workers: int = 1
+    counts: list[int], n: int, seed: int, vae=None, progress: bool = True, workers: int = 1, executor=None
 ) -> dict[int, list[LsppScenario]]:
     """n scenarios for each obstacle count in `counts` (each count from its own seed, so the result does not
-    depend on `workers`); the filter planner runs on `vae` (default: the shipped VAE)."""
-    if workers <= 1:
+    depend on where it runs); the filter planner runs on `vae` (default: the shipped VAE). One task per count on
+    `executor` (batch/executor.Executor; default: `workers` local processes); a given `vae` keeps every count in
+    this process."""
+    from latent_planner_ros.batch.executor import Executor, ExecutorConfig, Job
+
+    ex = executor or Executor(ExecutorConfig(workers=workers))
+    if vae is not None or (not ex.config.cluster and ex.config.workers <= 1):
         return {k: _draw_count(k, n, seed, vae, progress) for k in counts}
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
-
-    from latent_planner_ros.bench.workers import exit_with_parent
-
-    with ProcessPoolExecutor(workers, mp.get_context("spawn"), initializer=exit_with_parent) as ex:
-        futures = {k: ex.submit(_draw_count, k, n, seed) for k in counts}
-        bar = tqdm(total=len(counts), desc="scenario sets", disable=not progress)
-        out = {}
-        for k in counts:
-            out[k] = futures[k].result()
-            bar.update()
-        bar.close()
-    return out
+    bar = tqdm(total=len(counts), desc="scenario sets", disable=not progress)
+    out = {}
+    for i, drawn in ex.map(Job(_draw_count), [(k, n, seed) for k in counts]):
+        out[counts[i]] = drawn
+        bar.update()
+    bar.close()
+    return {k: out[k] for k in counts}
 
 
 def save_scenarios(path: Path, scenarios: dict[int, list[LsppScenario]], meta: dict) -> None:
