@@ -6,6 +6,9 @@ Commands:
     train <model> [args...]    train a model (vae, ...)
     bench <suite> --out DIR    run a benchmark; writes DIR/<suite>.json, a markdown report and PNGs
     demo                       the main job of the README
+    view                       the live 3D view of the suite in the browser
+    record DIR                 record the suite's topics into a rosbag2 MCAP bag
+    replay BAG                 publish a recorded bag back onto the graph (--view: and show it)
     info                       print a summary of the robot model
 """
 
@@ -45,6 +48,9 @@ def main(argv: list[str] | None = None) -> int:
         p.add_argument("target", choices=sorted(choices), metavar="{" + ",".join(sorted(choices)) + "}")
     sub.add_parser("launch", help="start the node suite", add_help=False)
     sub.add_parser("demo", help="run the main job", add_help=False)
+    sub.add_parser("view", help="serve the live 3D view on localhost", add_help=False)
+    sub.add_parser("record", help="record the suite's topics into a bag", add_help=False)
+    sub.add_parser("replay", help="publish a recorded bag back onto the graph", add_help=False)
     sub.add_parser("info", help="print a summary of the robot model")
     args, rest = parser.parse_known_args(argv)
 
@@ -59,6 +65,12 @@ def main(argv: list[str] | None = None) -> int:
         return int(_load("latent_planner_ros.launcher:main")(rest) or 0)
     if args.command == "demo":
         return int(_load("latent_planner_ros.demo:main")(rest) or 0)
+    if args.command == "view":
+        return int(_load("latent_planner_ros.nodes.view:main")(rest) or 0)
+    if args.command == "record":
+        return int(_load("latent_planner_ros.nodes.bag_recorder:main")(rest) or 0)
+    if args.command == "replay":
+        return int(_load("latent_planner_ros.nodes.bag_player:main")(rest) or 0)
     if args.command == "info":
         from latent_planner_ros.robot.summary import robot_summary
 

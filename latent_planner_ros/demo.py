@@ -1,6 +1,7 @@
 """The README's main job (``make demo``): the arm tracks a moving target on a conveyor, through the ROS graph.
 
     python -m latent_planner_ros demo [--duration S] [--out DIR] [--seed N] [--backend geometric|learned]
+        [--no-record] [--view [--view-port N]]
 
 Starts the node suite as processes (``sim`` with the conveyor scenario, ``planner`` chasing the sim's
 ``target_pose``, and ``scene_encoder`` when the planner's collision backend is the learned one), resets the
@@ -9,7 +10,9 @@ Then it stops the suite and prints a summary: reached and tracked (end effector 
 moving target, then staying there), time to reach, share of time tracking, the arm's minimum distance to the
 scene objects (ground truth from the sim), contacts, and the planner's tick timings. ``--out`` receives
 ``summary.json``, ``tracking.png`` (end effector vs target x/y/z over time), ``scene.png`` (a strip of
-pictures rendered from the logged joint states), ``trial.npz`` (the time series) and ``nodes.log``.
+pictures rendered from the logged joint states), ``trial.npz`` (the time series), ``nodes.log`` and ``bag/``: every
+topic of the run as a rosbag2 MCAP bag (``--no-record``: none; ``python -m latent_planner_ros replay DIR/bag``).
+``--view`` serves the live 3D view at http://localhost:8080 while the demo runs.
 
 Exit code 0 when the run completed (whether or not the target was reached: the summary says), 1 when the
 suite failed (a node died or did not come up), 130 when interrupted.
@@ -47,6 +50,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     p.add_argument("--domain-id", type=int, metavar="N", help="ROS_DOMAIN_ID (default: the environment's)")
     p.add_argument("--frames", type=int, default=6, help="pictures in the scene strip (default 6; 0 = none)")
+    p.add_argument("--no-record", action="store_true", help="do not record the run into OUT/bag")
+    p.add_argument("--view", action="store_true", help="serve the live 3D view on localhost (see --view-port)")
+    p.add_argument("--view-port", type=int, default=8080, metavar="N", help="the view's port (default 8080)")
     args = p.parse_args(argv)
     if not 0 < args.duration <= 3600:
         p.error("--duration must be in (0, 3600] s")
@@ -123,12 +129,28 @@ def run(args: argparse.Namespace) -> int:
     say(f"starting {', '.join(plan.nodes)} on ROS_DOMAIN_ID={domain} (node output: {log_path})")
     status = StatusLine(args.duration)
     suite = ConveyorSuite(plan, log_path=log_path, domain_id=args.domain_id)
+    if args.view:
+        from latent_planner_ros.node_suite import suite_env
+        from latent_planner_ros.view.process import view_spec
+
+        suite.supervisor.specs.append(view_spec(args.view_port, suite_env(args.domain_id, headless=True)))
+    recorder, bag_path = None, out / "bag"
     t_start = time.monotonic()
     try:
         up_s = suite.start()
         say(f"all nodes up after {up_s:.1f} s; resetting the scene and enabling the planner")
+        if args.view:
+            say(f"the view: http://localhost:{args.view_port}")
+        if not args.no_record:
+            from latent_planner_ros.nodes.bag_recorder import RecorderSession
+
+            recorder = RecorderSession(bag_path, args.domain_id, overwrite=True)
         log = suite.run_trial(args.duration, progress=status)
         status.done()
+        if recorder is not None:
+            bag, recorder = recorder.close(), None
+            size = sum(f.stat().st_size for f in bag_path.iterdir()) / 1e6
+            say(f"bag {bag_path}: {bag.message_count} messages on {len(bag.topics)} topics, {size:.1f} MB")
     except (StartupError, SuiteFailed) as err:
         status.done()
         print(f"[demo] error: {err}", file=sys.stderr)
@@ -149,6 +171,8 @@ def run(args: argparse.Namespace) -> int:
         say("interrupted: stopping the suite")
         return 130
     finally:
+        if recorder is not None:
+            recorder.close()
         suite.stop()
     run_s = time.monotonic() - t_start
 
@@ -178,6 +202,7 @@ def run(args: argparse.Namespace) -> int:
         "wall_s": run_s,
         **metrics,
         "pictures": pictures,
+        "bag": None if args.no_record else str(bag_path),
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     print()

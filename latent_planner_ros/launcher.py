@@ -2,6 +2,7 @@
 
     python -m latent_planner_ros launch [--scenario NAME|FILE] [--with-ompl] [--execute NODE] [--headless]
         [--domain-id N] [--nodes a,b,c] [--duration S] [--param NODE:NAME:=VALUE ...] [--startup-timeout S]
+        [--view [--view-port N]] [--record DIR]
 
 Starts each node (default: sim, scene_encoder, planner) as ``python -m latent_planner_ros run <node>``
 with its ``config/<node>.yaml`` and ``use_sim_time:=true``, all on one ROS_DOMAIN_ID, each in its own
@@ -15,9 +16,13 @@ One command source at a time: the planners start disabled and ``--execute`` name
 it is in the suite); a ``--param`` that would enable the other one is refused. At run time, enabling one of them
 disables the other (nodes/execution_owner.py).
 
-``--headless``: the suite never opens a viewer and never records (the sim's ``--record`` is for
+``--headless``: the suite never opens a MuJoCo viewer and never records video (the sim's ``--record`` is for
 ``run sim``); the flag makes MuJoCo render offscreen with osmesa (unless MUJOCO_GL is set) so the
 suite runs the same on a desktop as on a server.
+
+``--view`` adds the live 3D view (``python -m latent_planner_ros view``, a process named ``view``) at
+http://localhost:8080 (``--view-port``); ``--record DIR`` records every topic from start-up to the stop into a
+rosbag2 MCAP bag in the new directory DIR (nodes/bag_recorder.py; ``ros2 bag info DIR``, ``... replay DIR``).
 
 Exit codes: 0 after ``--duration`` or a requested stop; 1 when a node failed (died during start-up,
 was not up in time, or exited while the suite ran; the message names it); 2 on bad arguments.
@@ -31,6 +36,7 @@ import os
 import signal
 import sys
 import threading
+from pathlib import Path
 
 from latent_planner_ros.node_suite import DEFAULT_NODES, SuiteError, parse_param, suite_env, suite_specs
 from latent_planner_ros.registry import NODES
@@ -75,6 +81,13 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         default=[],
         metavar="NODE:NAME:=VALUE",
         help="a parameter for one node, after its params file (repeatable), e.g. sim:real_time_factor:=0",
+    )
+    parser.add_argument(
+        "--view", action="store_true", help="also serve the live 3D view on localhost (see --view-port)"
+    )
+    parser.add_argument("--view-port", type=int, default=8080, metavar="N", help="the view's port (default 8080)")
+    parser.add_argument(
+        "--record", type=Path, metavar="DIR", help="record every topic into a rosbag2 MCAP bag in DIR (a new directory)"
     )
     parser.add_argument(
         "--startup-timeout",
@@ -183,7 +196,14 @@ def build_suite(args: argparse.Namespace) -> Supervisor:
             )
         params.setdefault(node, []).append(assignment)  # after the defaults above, so the user's wins
     env = suite_env(args.domain_id, args.headless)
-    return Supervisor(suite_specs(nodes, params, env))
+    specs = suite_specs(nodes, params, env)
+    if args.view:
+        from latent_planner_ros.view.process import view_spec
+
+        specs.append(view_spec(args.view_port, env))
+    if args.record is not None and args.record.exists() and (not args.record.is_dir() or any(args.record.iterdir())):
+        raise SuiteError(f"--record {args.record}: exists and is not empty (a bag is written into a new directory)")
+    return Supervisor(specs)
 
 
 def run_suite(suite: Supervisor, args: argparse.Namespace, stop: threading.Event, force: threading.Event) -> int:
@@ -194,13 +214,21 @@ def run_suite(suite: Supervisor, args: argparse.Namespace, stop: threading.Event
     domain = args.domain_id if args.domain_id is not None else os.environ.get("ROS_DOMAIN_ID", "0")
     suite.log(f"starting {', '.join(names)} on ROS_DOMAIN_ID={domain}")
     code = 0
+    recorder = None
     try:
         suite.start()
+        if args.record is not None:
+            from latent_planner_ros.nodes.bag_recorder import RecorderSession
+
+            recorder = RecorderSession(args.record, args.domain_id)
+            suite.log(f"recording every topic into {args.record}")
         with GraphProbe(domain_id=args.domain_id) as probe:
             ready = suite.wait_ready(probe.ready_nodes, args.startup_timeout, stop)
         if ready:
             until = f"for {args.duration:g} s" if args.duration is not None else "until Ctrl-C"
             suite.log(f"all {len(names)} nodes are up; running {until}")
+            if args.view:
+                suite.log(f"the view: http://localhost:{args.view_port}")
             exited = suite.watch(stop, args.duration)
             if exited is not None:
                 name, returncode = exited
@@ -210,6 +238,9 @@ def run_suite(suite: Supervisor, args: argparse.Namespace, stop: threading.Event
         suite.log(f"error: {err}")
         code = 1
     finally:
+        if recorder is not None:
+            bag = recorder.close()
+            suite.log(f"bag {args.record}: {bag.message_count} messages on {len(bag.topics)} topics")
         running = [n for n in suite.pids if n not in suite.exited()]
         if running:
             suite.log(f"stopping {', '.join(running)}")

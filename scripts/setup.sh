@@ -4,7 +4,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=${VENV:-.venv}
 PYTHON=${PYTHON:-python3}
-DEB_PACKAGES="libusb-1.0-0 libosmesa6"
+DEB_PACKAGES="libusb-1.0-0 libosmesa6 chromium chromium-driver"
 
 missing=""
 for p in $DEB_PACKAGES; do

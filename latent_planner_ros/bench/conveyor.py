@@ -180,6 +180,9 @@ def main(argv: list[str]) -> int:
         help="a planner parameter for this run on top of config/planner.yaml (repeatable), e.g. "
         "closed_loop.goal_lead_s=0.5",
     )
+    p.add_argument(
+        "--record", action="store_true", help="record each trial into a rosbag2 MCAP bag, OUT/bags/trial_<index>"
+    )
     args = p.parse_args(argv)
     if not SPEED_RANGE[0] <= args.max_belt_speed <= 1.0:
         p.error(f"--max-belt-speed must lie in [{SPEED_RANGE[0]}, 1.0] m/s, got {args.max_belt_speed}")
@@ -213,7 +216,13 @@ def main(argv: list[str]) -> int:
             draws = [trial_settings(rng, args.seed, i, args.max_belt_speed) for i in range(max(indices) + 1)]
             for n, i in enumerate(indices):
                 seed, overrides, drawn = draws[i]
-                log = suite.run_trial(args.trial_duration, seed=seed, overrides=overrides)
+                if args.record:
+                    from latent_planner_ros.nodes.bag_recorder import RecorderSession
+
+                    with RecorderSession(args.out / "bags" / f"trial_{i}", args.domain_id, overwrite=True):
+                        log = suite.run_trial(args.trial_duration, seed=seed, overrides=overrides)
+                else:
+                    log = suite.run_trial(args.trial_duration, seed=seed, overrides=overrides)
                 tr = tracking(log)
                 m = trial_metrics(log, track=tr)
                 rows.append({"seed": seed, "drawn": drawn, **m})
