@@ -27,7 +27,9 @@ empty the closed loop and ~/plan use LSPP (position-only goals; no cloud or embe
 `mode: lspp (K cylinders; ...)`, else `mode: amp_ls`. A refused array changes nothing. The planner's cylinders
 are drawn on ~/markers (namespace `obstacles`). The subscription is volatile: publish after the planner is up.
 
-Parameters: PlannerNodeConfig (config/planner.yaml), validated; a bad value is refused with a reason.
+Parameters: PlannerNodeConfig (config/planner.yaml), validated at once; a bad value is refused with a reason. A change
+of the planners' parameters (REBUILT_BY) rebuilds them on a worker thread while the loop goes on ticking; the loop
+swaps them in at the start of the first tick after the build (nodes/rebuild_worker.py); other changes apply at once.
 
     python -m latent_planner_ros run planner [--ros-args --params-file config/planner.yaml]
 """
@@ -37,6 +39,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
+from dataclasses import replace
 from functools import partial, wraps
 
 import numpy as np
@@ -60,6 +63,7 @@ from latent_planner_ros.nodes.execution_owner import ExecutionOwner
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
+from latent_planner_ros.nodes.rebuild_worker import RebuildWorker
 from latent_planner_ros.nodes.segment_chain import SegmentChain
 from latent_planner_ros.nodes.service_thread import ServiceThread
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
@@ -68,6 +72,7 @@ from latent_planner_ros.perception.scene_input import limit_points
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.backends import make_backend
 from latent_planner_ros.planning.closed_loop import ClosedLoopController, TickOutcome
+from latent_planner_ros.planning.cylinder_backend import CylinderBackend
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.grasp import grasp_reason, plan_grasp
 from latent_planner_ros.planning.lspp import make_lspp
@@ -92,6 +97,21 @@ from msg_adapters.plan_request import FAILED, REFUSED, SUCCESS
 from msg_adapters.pose import pose_stamped_in_base
 from sim_bridge.params import ConfigError, from_params
 from sim_bridge.ros_params import ConfigParams
+
+REBUILT_BY = (
+    "vae_checkpoint",
+    "collision_checkpoint",
+    "lspp_checkpoint",
+    "lspp_check",
+    "closed_loop",
+    "amp_ls",
+    "lspp",
+)
+"""PlannerNodeConfig fields the planners are built from: a change rebuilds them (off the control loop)."""
+
+
+def _planner_fields(config: PlannerNodeConfig) -> dict:
+    return {name: getattr(config, name) for name in REBUILT_BY}
 
 
 def _locked(method):
@@ -120,6 +140,9 @@ class PlannerNode(Node):
         self.frames, self.joint_names = self.config.frames.frames(), self.config.frames.joint_names
         self.vae, _ = load_vae(self.config.vae_checkpoint or None)
         self.modes, self.plan_planner = self._make_modes(self.config, self.vae)
+        self._accepted = (self.config, self.vae)  # the newest accepted configuration (its planners may be building)
+        self._rebuild = RebuildWorker(self._build, name="planner-rebuild")
+        self._last_q: tuple[np.ndarray, float] | None = None  # the last accepted joint state and its time [s]
         params.on_set(self._on_set_parameters)
         self._last_error = ""
         self._last_outcome = TickOutcome(None, "starting", "starting")
@@ -165,6 +188,7 @@ class PlannerNode(Node):
         )
 
     def destroy_node(self) -> None:
+        self._rebuild.close()
         self.service_thread.close()
         super().destroy_node()
 
@@ -195,38 +219,83 @@ class PlannerNode(Node):
 
     # -- parameters ------------------------------------------------------------------------------
     def _on_set_parameters(self, ours: dict) -> SetParametersResult:
-        """Apply {dotted name: value} of our parameters (read-only ones never get here, nor use_sim_time)."""
+        """Check {dotted name: value} of our parameters here, so a bad value is refused with its reason; a change of
+        the planners' fields (REBUILT_BY) is built on the rebuild worker and swapped in at a tick, the rest applies
+        at once (read-only parameters never get here, nor use_sim_time)."""
+        with self._lock:
+            base, base_vae = self._accepted
         try:
-            config = from_params(PlannerNodeConfig, ours, base=self.config)
-            learned = [c.amp_ls.collision_backend == "learned" for c in (config, self.config)]
+            config = from_params(PlannerNodeConfig, ours, base=base)
+            learned = [c.amp_ls.collision_backend == "learned" for c in (config, base)]
             if learned[0] != learned[1]:  # the scene_embedding subscription exists only with the learned backend
                 raise ConfigError("amp_ls.collision_backend: a change to or from learned needs a restart of the node")
-            vae = (
-                self.vae
-                if config.vae_checkpoint == self.config.vae_checkpoint
-                else load_vae(config.vae_checkpoint or None)[0]
-            )
-            modes, plan_planner = self._make_modes(config, vae)  # the slow part, while the loop goes on ticking
+            vae = self._checked_checkpoints(config, base, base_vae)
         except (ConfigError, ValueError, TypeError, CheckpointError) as err:
             return SetParametersResult(successful=False, reason=str(err))
         with self._lock:
-            self._swap(config, vae, modes, plan_planner)
-            if "enabled" in ours and config.enabled:
-                self.owner.claim()
+            self._accepted = (config, vae)
+            if _planner_fields(config) != _planner_fields(base):
+                self._rebuild.submit((config, vae))  # the slow part, while the loop goes on ticking
+            self._apply(replace(config, **_planner_fields(self.config)))
+            if "enabled" in ours:
+                self._set_enabled(config.enabled)
         return SetParametersResult(successful=True)
 
-    def _swap(self, config: PlannerNodeConfig, vae, modes: PlannerModes, plan_planner: AmpLs) -> None:
-        """Take up a rebuilt configuration: the inputs, goal and cylinders carry over."""
-        goal, cylinders = self.modes.goal, self.modes.cylinders
+    def _checked_checkpoints(self, config: PlannerNodeConfig, base: PlannerNodeConfig, base_vae):
+        """The VAE of `config`, each changed checkpoint loaded once to see that it is good (CheckpointError)."""
+        if config.collision_checkpoint != base.collision_checkpoint and config.amp_ls.collision_backend == "learned":
+            make_backend("learned", config.collision_checkpoint)
+        if config.lspp_checkpoint != base.lspp_checkpoint:
+            CylinderBackend.load(config.lspp_checkpoint or None)
+        if config.vae_checkpoint == base.vae_checkpoint:
+            return base_vae
+        return load_vae(config.vae_checkpoint or None)[0]
+
+    def _build(self, request: tuple[PlannerNodeConfig, object]) -> tuple[PlannerModes, AmpLs]:
+        """On the rebuild worker: the planners of an accepted configuration (the slow part of a change)."""
+        config, vae = request
+        return self._make_modes(config, vae)
+
+    def _take_rebuild(self) -> None:
+        """At the start of a tick (under the lock): swap in the planners of the newest change, once built."""
+        built = self._rebuild.take()
+        if built is None:
+            return
+        if built.error is not None:  # checked when accepted; a checkpoint file that went away since, say
+            self._error(f"parameter change not applied: rebuilding the planners failed: {built.error}")
+            return
+        config, vae = built.request
+        modes, plan_planner = built.result
+        modes.set_enabled(self.modes.amp_ls.enabled)  # as ~/enable, a preemption or `enabled` left it
+        accepted = replace(self._accepted[0], **_planner_fields(config))
+        self._swap(accepted, vae, modes, plan_planner)
+
+    def _apply(self, config: PlannerNodeConfig) -> None:
+        """Take up config (under the lock) with the planners in use: rates re-create their timers."""
         if config.closed_loop.rate_hz != self.config.closed_loop.rate_hz:  # the step size follows the rate
             self._tick_timer = self._replace_timer(self._tick_timer, config.closed_loop.rate_hz, self._on_tick)
         if config.status_rate_hz != self.config.status_rate_hz:
             self._status_timer = self._replace_timer(self._status_timer, config.status_rate_hz, self._publish_status)
+        self.fusion.max_age_s = config.cloud_max_age_s
+        self.config = config
+
+    def _set_enabled(self, enabled: bool) -> None:
+        if enabled:
+            self.owner.claim()  # the other execution source stops
+        else:
+            self.segments.reset()
+        self.modes.set_enabled(enabled)
+
+    def _swap(self, config: PlannerNodeConfig, vae, modes: PlannerModes, plan_planner: AmpLs) -> None:
+        """Take up rebuilt planners and their configuration: the inputs, goal and cylinders carry over."""
+        goal, cylinders = self.modes.goal, self.modes.cylinders
         old_runner = self.modes.amp_ls.follower.runner if self.modes.amp_ls.follower is not None else None
-        self.config, self.modes, self.vae, self.plan_planner = config, modes, vae, plan_planner
+        self._apply(config)
+        self.modes, self.vae, self.plan_planner = modes, vae, plan_planner
         if old_runner is not None:
             old_runner.close(timeout_s=0.0)  # its thread ends after the plan it runs; that outcome is dropped
-        self.fusion.max_age_s = config.cloud_max_age_s
+        if self._last_q is not None:
+            self.modes.set_joint_state(*self._last_q)
         if self._last_cloud is not None:
             self._apply_cloud(*self._last_cloud)
         self.modes.set_cylinders(cylinders, self._now())
@@ -246,8 +315,11 @@ class PlannerNode(Node):
         except AdapterError as err:
             self._error(f"joint_states refused: {err}")
             return
-        accepted, reason = self.modes.set_joint_state(q, self._now())
-        if not accepted:
+        now = self._now()
+        accepted, reason = self.modes.set_joint_state(q, now)
+        if accepted:
+            self._last_q = (q, now)
+        else:
             self._error(f"joint_states refused: {reason}")
 
     def _on_cloud(self, cloud_topic: str, msg: PointCloud2) -> None:
@@ -343,6 +415,7 @@ class PlannerNode(Node):
     # -- control ------------------------------------------------------------------------------------
     def _on_tick(self) -> None:
         with self._lock:
+            self._take_rebuild()
             self._use_latest_cloud()
             now = self._now()
             outcome = self.modes.tick(now)
@@ -374,11 +447,7 @@ class PlannerNode(Node):
 
     def _on_enable(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         with self._lock:
-            if request.data:
-                self.owner.claim()  # the other execution source stops
-            else:
-                self.segments.reset()
-            self.modes.set_enabled(bool(request.data))
+            self._set_enabled(bool(request.data))
         response.success, response.message = True, "enabled" if request.data else "disabled"
         return response
 
