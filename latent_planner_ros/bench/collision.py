@@ -7,6 +7,10 @@ nearest cloud point), encode and query times, a calibration plot, ROC curves and
 near-object collisions are also split by what the camera saw of them (hidden: no cloud point within HIDDEN_M
 of the arm; recall per distance bin, plotted) and by where they are (every contact outside the network's
 workspace box, whose points it is never given).
+
+The benchmark scenes (generated once per --data-dir) are labelled in --workers processes, or on Ray with
+--cluster (batch/executor.py, docs/cluster.md); the scoring runs in this process (one network, one sequence of
+viewpoints drawn from one generator over the scenes).
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ import torch
 from scipy.spatial import cKDTree
 from tqdm import tqdm
 
+from latent_planner_ros.batch.executor import Executor, add_executor_args, executor_config
 from latent_planner_ros.bench.report import bench_parser, write_report
 from latent_planner_ros.data.camera import CameraConfig, planning_crop
 from latent_planner_ros.data.dataset import CollisionData, DatasetConfig, generate_dataset
@@ -52,13 +57,14 @@ GAP_EDGES_M = (0.0, 0.005, 0.01, HIDDEN_M, 0.03, 0.06, np.inf)
 """bins of the distance [m] from the arm's surface points to the nearest cloud point, for recall per bin"""
 
 
-def bench_data(root: Path, family: str, name: str, n_scenes: int, per_kind: int) -> CollisionData:
-    """The first n_scenes benchmark scenes of a family (generated once, cached under root/bench_<name>)."""
+def bench_data(root: Path, family: str, name: str, n_scenes: int, per_kind: int, executor=None) -> CollisionData:
+    """The first n_scenes benchmark scenes of a family (generated once, one shard per task on `executor`,
+    batch/executor.Executor, default in this process; cached under root/bench_<name>)."""
     cfg = DatasetConfig(
         family=family, scenes_per_shard=SHARD, queries=QuerySamplerConfig(n_uniform=per_kind, n_near=per_kind)
     )
     directory = root / f"bench_{name}_q{per_kind}"
-    generate_dataset(directory, n_scenes, split=f"bench_{name}", seed=BENCH_SEED, config=cfg)
+    generate_dataset(directory, n_scenes, split=f"bench_{name}", seed=BENCH_SEED, config=cfg, executor=executor)
     return CollisionData.load(directory, limit=-(-n_scenes // SHARD)).first(n_scenes)
 
 
@@ -357,6 +363,7 @@ def main(argv: list[str]) -> int:
         "workcell family's held-out variant), each reported on its own",
     )
     p.add_argument("--family-scenes", type=int, default=50, help="test scenes per extra family (default 50)")
+    add_executor_args(p, workers=1)
     args = p.parse_args(argv)
     from latent_planner_ros.bench.collision_families import (
         extra_families,
@@ -379,10 +386,13 @@ def main(argv: list[str]) -> int:
     from latent_planner_ros.models.collision_io import load_collision_net, shipped_collision_path
 
     _, meta = load_collision_net(args.checkpoint)
-    data = {
-        "seen": bench_data(args.data_dir, "train", "seen", args.scenes, args.queries),
-        "unseen": bench_data(args.data_dir, "heldout", "unseen", args.scenes, args.queries),
-    }
+    with Executor(executor_config(args)) as ex:
+        data = {
+            "seen": bench_data(args.data_dir, "train", "seen", args.scenes, args.queries, ex),
+            "unseen": bench_data(args.data_dir, "heldout", "unseen", args.scenes, args.queries, ex),
+        }
+        for family in extra:  # generated here, scored by score_families below (from the cache)
+            bench_data(args.data_dir, family, family, args.family_scenes, args.queries, ex)
     scores = {name: evaluate_family(pred, d, seed=BENCH_SEED + k) for k, (name, d) in enumerate(data.items())}
     results: dict = {}
     box = pred.net.config.encoder
@@ -408,6 +418,7 @@ def main(argv: list[str]) -> int:
             "query_ms_median": q1,
             "query_1000_ms_median": q1000,
             "torch_threads": torch.get_num_threads(),
+            "executor": ex.name,
             "checkpoint": str(args.checkpoint or shipped_collision_path()),
             "training": {k: meta.get("training", {}).get(k) for k in ("command", "duration_s", "iterations", "scenes")},
         }

@@ -12,6 +12,9 @@ camera and moves the teacher's training record under `distil.teacher_training`. 
 command, the teacher's SHA-256, and how often the student's hard decisions (p >= threshold on the combined
 logit) agree with the teacher's: on fresh training-family scenes, and on held-out-family scenes (evaluation
 only). It also gives the rate of the unsafe kind of disagreement (the teacher refuses, the student accepts).
+
+Each scene is drawn from its own generator (--seed, scene index), so the samples are the same wherever they are
+made: here (default), in --workers processes, or on Ray with --cluster (batch/executor.py, docs/cluster.md).
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from latent_planner_ros.batch.executor import Executor, add_executor_args, executor_config
 from latent_planner_ros.data.camera import CameraConfig
 from latent_planner_ros.data.render import scene_view
 from latent_planner_ros.data.scene_families import check_family, generate_family_scene
@@ -48,24 +52,63 @@ LOGIT_CLAMP = 12.0
 """teacher logits are clamped to +-this before regression (beyond it both are certain)"""
 
 
-def teacher_samples(
-    predictor: CollisionPredictor, student: CollisionNet, scenes: int, family: str, seed: int, per_scene: int
+def scene_samples(
+    predictor: CollisionPredictor, student: CollisionNet, family: str, seed: int, index: int, per_scene: int
 ) -> tuple[torch.Tensor, torch.Tensor]:
-    """The student's classifier inputs (S * per_scene, L, D) and the teacher's link logits (S * per_scene, L)."""
+    """Scene `index` of (family, seed): the student's classifier inputs (per_scene, L, D) and the teacher's link
+    logits (per_scene, L) for uniform configurations; its own generator (seed, index), wherever it runs."""
     net, vae = predictor.net, predictor.vae
     enc = net.config.encoder
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(np.random.SeedSequence([seed, index]))
     camera = dataclasses.replace(CameraConfig(), crop_min=enc.bounds_min, crop_max=enc.bounds_max)
-    xs, ys = [], []
-    for _ in tqdm(range(scenes), desc=f"distil: {family} scenes", unit="scene", leave=False):
-        cloud, origin = scene_view(generate_family_scene(rng, family), rng, camera)
-        emb = predictor.encode(crop_to_bounds(cloud, enc.bounds_min, enc.bounds_max), origin)
-        q = torch.as_tensor(rng.uniform(Q_MIN, Q_MAX, (per_scene, 7)), dtype=torch.float32)
-        with torch.no_grad():
-            z = vae.encode_q(q)[None]
-            xs.append(student.link_inputs(emb.features[None], q[None], z)[0])
-            ys.append(net.link_logits(emb.features[None], q[None], z)[0])
-    return torch.cat(xs), torch.cat(ys)
+    cloud, origin = scene_view(generate_family_scene(rng, family), rng, camera)
+    emb = predictor.encode(crop_to_bounds(cloud, enc.bounds_min, enc.bounds_max), origin)
+    q = torch.as_tensor(rng.uniform(Q_MIN, Q_MAX, (per_scene, 7)), dtype=torch.float32)
+    with torch.no_grad():
+        z = vae.encode_q(q)[None]
+        return student.link_inputs(emb.features[None], q[None], z)[0], net.link_logits(emb.features[None], q[None], z)[
+            0
+        ]
+
+
+def _load_pair(teacher: str | None, student_config, threads: int) -> tuple[CollisionPredictor, CollisionNet]:
+    """In a worker: the teacher (stem; None = shipped) and a student of `student_config` (its inputs only)."""
+    torch.set_num_threads(threads)
+    return CollisionPredictor.load(teacher), CollisionNet(student_config)
+
+
+def _scene_task(pair, family: str, seed: int, index: int, per_scene: int) -> tuple[torch.Tensor, torch.Tensor]:
+    return scene_samples(*pair, family, seed, index, per_scene)
+
+
+def teacher_samples(
+    predictor: CollisionPredictor,
+    student: CollisionNet,
+    scenes: int,
+    family: str,
+    seed: int,
+    per_scene: int,
+    executor=None,
+    teacher: str | None = None,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The student's classifier inputs (S * per_scene, L, D) and the teacher's link logits (S * per_scene, L), scene
+    by scene (`scene_samples`). With an `executor` (batch/executor.Executor) one task per scene, each worker
+    loading the teacher from its stem `teacher` (None = shipped; the one `predictor` was loaded from)."""
+    bar = tqdm(total=scenes, desc=f"distil: {family} scenes", unit="scene", leave=False)
+    out: dict[int, tuple[torch.Tensor, torch.Tensor]] = {}
+    if executor is None:
+        for i in range(scenes):
+            out[i] = scene_samples(predictor, student, family, seed, i, per_scene)
+            bar.update()
+    else:
+        from latent_planner_ros.batch.executor import Job
+
+        job = Job(_scene_task, _load_pair, (teacher, student.config, 1))
+        for i, pair in executor.map(job, [(family, seed, i, per_scene) for i in range(scenes)]):
+            out[i] = pair
+            bar.update()
+    bar.close()
+    return torch.cat([out[i][0] for i in range(scenes)]), torch.cat([out[i][1] for i in range(scenes)])
 
 
 def agreement(student: CollisionNet, x: torch.Tensor, y: torch.Tensor, threshold: float) -> dict:
@@ -82,8 +125,11 @@ def agreement(student: CollisionNet, x: torch.Tensor, y: torch.Tensor, threshold
     }
 
 
-def distil(args: argparse.Namespace) -> tuple[CollisionNet, dict]:
-    """Train the student; returns it and its metrics."""
+def distil(args: argparse.Namespace, executor=None) -> tuple[CollisionNet, dict]:
+    """Train the student; returns it and its metrics. The teacher's samples are drawn scene by scene on
+    `executor` (batch/executor.Executor) when it has more than one worker or is a Ray cluster, else here."""
+    if executor is not None and not (executor.config.cluster or executor.config.workers > 1):
+        executor = None
     predictor = CollisionPredictor.load(args.teacher)
     teacher = predictor.net
     latent = 0 if args.no_latent else teacher.config.latent
@@ -92,7 +138,9 @@ def distil(args: argparse.Namespace) -> tuple[CollisionNet, dict]:
     student.encoder.load_state_dict(teacher.encoder.state_dict())
     student.encoder.requires_grad_(False)
     torch.manual_seed(args.seed)
-    x, y = teacher_samples(predictor, student, args.scenes, args.family, args.seed, args.per_scene)
+    x, y = teacher_samples(
+        predictor, student, args.scenes, args.family, args.seed, args.per_scene, executor, args.teacher
+    )
     x, y = x.reshape(-1, x.shape[-1]), y.reshape(-1).clamp(-LOGIT_CLAMP, LOGIT_CLAMP)
     steps_per_epoch = max(1, len(x) // args.batch)
     opt = torch.optim.Adam(student.classifier.parameters(), lr=args.lr)
@@ -111,7 +159,9 @@ def distil(args: argparse.Namespace) -> tuple[CollisionNet, dict]:
     student.eval()
     metrics = {"train_mse": loss.item()}
     for name, family, seed in (("train", args.family, args.seed + 1), ("heldout", args.val_family, args.seed + 2)):
-        vx, vy = teacher_samples(predictor, student, args.val_scenes, family, seed, args.per_scene)
+        vx, vy = teacher_samples(
+            predictor, student, args.val_scenes, family, seed, args.per_scene, executor, args.teacher
+        )
         scores = agreement(student, vx, vy, args.threshold)
         metrics.update({f"val_{name}_{k}": v for k, v in scores.items()})
     return student, metrics
@@ -136,6 +186,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--threshold", type=float, default=0.2, help="p(collision) of a refusal, for the metrics")
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--seed", type=int, default=0)
+    add_executor_args(p, workers=1)
     args = p.parse_args(argv)
     for name in ("scenes", "val_scenes", "per_scene", "epochs", "batch", "threads"):
         if getattr(args, name) < 1:
@@ -159,7 +210,8 @@ def main(argv: list[str] | None = None) -> int:
     teacher_stem = Path(args.teacher) if args.teacher else shipped_collision_path()
     try:
         _, meta = load_collision_net(teacher_stem)
-        student, metrics = distil(args)
+        with Executor(executor_config(args)) as ex:
+            student, metrics = distil(args, ex)
     except CheckpointError as e:
         print(f"train distil: {e}", file=sys.stderr)
         return 2
@@ -174,6 +226,7 @@ def main(argv: list[str] | None = None) -> int:
             "teacher_sha256": file_sha256(teacher_stem.with_suffix(".safetensors")),
             "teacher_hidden": list(meta["architecture"]["hidden"]),
             "threshold": args.threshold,
+            "executor": ex.name,
             "metrics": metrics,
         },
     }

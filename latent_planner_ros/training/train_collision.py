@@ -1,6 +1,7 @@
 """Train the collision predictor on procedurally generated tabletop scenes.
 
     python -m latent_planner_ros train collision --generate N [--workers W] [--family F]  # N labelled scenes
+    python -m latent_planner_ros train collision --generate N --cluster auto|ADDRESS      # ... on Ray
     python -m latent_planner_ros train collision --init STEM [--box-min X Y Z --box-max X Y Z] ...  # fine-tune
     python -m latent_planner_ros train collision [--minutes N] [--out DIR] [--vae STEM] [--resume]
     python -m latent_planner_ros train collision --grow STEM --box-max X Y Z --out DIR   # a larger box, no training
@@ -25,6 +26,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from latent_planner_ros.batch.executor import Executor, add_executor_args, executor_config
 from latent_planner_ros.data.camera import CameraConfig
 from latent_planner_ros.data.dataset import CollisionData, DatasetConfig, generate_dataset
 from latent_planner_ros.data.scene_families import check_family
@@ -55,7 +57,8 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, TrainCollisionConfi
     p.add_argument("--vae", type=Path, default=None, help="VAE checkpoint stem (default: the shipped vae_kinematic)")
     p.add_argument("--device", default=None, help="cpu or cuda (default: cuda when present)")
     p.add_argument("--generate", type=int, metavar="N", help="generate N training scenes into --data, then exit")
-    p.add_argument("--workers", type=int, default=1, help="processes for --generate")
+    p.add_argument("--workers", type=int, default=1, help="processes for --generate (or CPUs of --cluster auto)")
+    add_executor_args(p)
     p.add_argument("--data-seed", type=int, default=0, help="seed of the generated training split")
     p.add_argument(
         "--grow",
@@ -268,9 +271,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"train collision --generate: {e}", file=sys.stderr)
             return 2
         cfg = DatasetConfig(family=config.family)
-        generate_dataset(
-            config.data, args.generate, split="train", seed=args.data_seed, config=cfg, workers=args.workers
-        )
+        with Executor(executor_config(args)) as ex:
+            generate_dataset(config.data, args.generate, split="train", seed=args.data_seed, config=cfg, executor=ex)
         return 0
     if args.grow:
         from latent_planner_ros.training.grow_collision import grow
