@@ -17,6 +17,7 @@ import numpy as np
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.evasion import Evader
 from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.grasp import GraspSpec
 from latent_planner_ros.planning.plan_follow import STILL_GOAL_MPS, PlanFollower
 from latent_planner_ros.robot.limits import JOINT_NAMES, Q_MAX, Q_MIN, V_MAX
 
@@ -144,6 +145,9 @@ class ClosedLoopController:
         )
         self.enabled = True
         self.goal: Goal | None = None
+        self.grasp: GraspSpec | None = None  # set when the goal is a grasp (see set_goal)
+        self.grasp_note = ""  # for the status: the target split of the newest cloud at a grasp goal
+        self._raw_cloud: np.ndarray | None = None  # the newest cloud as received (the target not set aside)
         self._q: np.ndarray | None = None
         self._q_time = -np.inf
         self._scene: Any = None
@@ -176,12 +180,25 @@ class ClosedLoopController:
         if cloud is not None:
             self.set_cloud(cloud, now)
 
-    def set_cloud(self, cloud: np.ndarray, now: float | None = None) -> None:
+    def set_cloud(self, cloud: np.ndarray, now: float | None = None) -> np.ndarray:
         """The latest raw cloud (N, 3) [m] (finite points), used to refuse goals inside observed obstacles and,
-        with its time now [s], to notice obstacles approaching the arm (evade_margin_m)."""
-        self._cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
+        with its time now [s], to notice obstacles approaching the arm (evade_margin_m). Returns the obstacles
+        (M, 3) [m]: the cloud, or at a grasp goal the cloud without the target's points, which is what the hard
+        check of every command must be given (the caller hands it to the backend)."""
+        self._raw_cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
+        self._cloud = self._obstacles(self._raw_cloud)
         if now is not None and self._evader is not None:
             self._evader.add_cloud(self._cloud, now)
+        return self._cloud
+
+    def _obstacles(self, cloud: np.ndarray) -> np.ndarray:
+        """cloud (N, 3) [m] without the grasp target's points (the cloud itself at a reach goal)."""
+        if self.grasp is None or self.goal is None:
+            self.grasp_note = ""
+            return cloud
+        split = self.grasp.split(cloud, self.goal)
+        self.grasp_note = split.report
+        return np.asarray(split.obstacles, dtype=float)
 
     def check_goal(self, goal: Goal, check_cloud: bool = True) -> tuple[bool, str]:
         """(False, reason) for a goal out of reach or (check_cloud) inside an observed obstacle, else (True, "")."""
@@ -209,16 +226,33 @@ class ClosedLoopController:
 
     @property
     def cloud(self) -> np.ndarray | None:
-        """The latest raw cloud (N, 3) [m], or None."""
+        """The latest cloud (N, 3) [m] as the hard checks take it (at a grasp goal without the target), or None."""
         return self._cloud
 
-    def set_goal(self, goal: Goal, now: float) -> tuple[bool, str]:
-        """Accept or refuse a goal; returns (accepted, reason)."""
-        ok, reason = self.check_goal(goal)
+    @property
+    def raw_cloud(self) -> np.ndarray | None:
+        """The latest cloud (N, 3) [m] as received, or None."""
+        return self._raw_cloud
+
+    def set_goal(self, goal: Goal, now: float, grasp: GraspSpec | None = None) -> tuple[bool, str]:
+        """Accept or refuse a goal; returns (accepted, reason). With `grasp` the goal is a grasp: it may lie at an
+        object (no inside-an-obstacle check); its target's points are set aside from the cloud the commands are
+        checked against, and the arm moves only along background plans made by planning/grasp.plan_grasp (pre-grasp,
+        then a straight approach), never by local steps, which would neither keep the target an obstacle on the
+        way nor approach straight. Moving grasp goals are not chased (they are never planned)."""
+        if grasp is not None and self.follower is None:
+            return False, "grasp goal refused: the closed loop follows no background plans (follow_plans is off)"
+        ok, reason = self.check_goal(goal, check_cloud=grasp is None)
         if not ok:
             return False, reason
         changed = self.goal is None or np.linalg.norm(goal.position - self.goal.position) > GOAL_JUMP_M
-        self.goal = goal
+        if grasp != self.grasp:
+            changed = True
+            if self.follower is not None:
+                self.follower.forget()
+        self.goal, self.grasp = goal, grasp
+        if self._raw_cloud is not None and (changed or grasp is not None):
+            self._cloud = self._obstacles(self._raw_cloud)
         if changed:
             self._failed = None
             self._best_err, self._best_time, self._best_goal = np.inf, now, None
@@ -252,7 +286,9 @@ class ClosedLoopController:
 
     def clear_goal(self) -> None:
         """Forget the goal (the arm holds until a new one)."""
-        self.goal = None
+        self.goal, self.grasp = None, None
+        if self._raw_cloud is not None:
+            self._cloud = self._obstacles(self._raw_cloud)
         self._goal_track.clear()
         if self.follower is not None:
             self.follower.forget()
@@ -298,6 +334,8 @@ class ClosedLoopController:
             outcome = self._follow(now, hold)
             if outcome is not None:
                 return outcome
+        if self.grasp is not None:
+            return self._grasp_hold(now, hold)
         t0 = time.perf_counter()
         out = self.planner.step(
             self._q,
@@ -343,7 +381,8 @@ class ClosedLoopController:
         f, use_scene = self.follower, self.planner.config.use_collision
         scene = self._scene if use_scene else None
         speed = float(np.linalg.norm(self.goal_velocity()))
-        f.update(now, self._q, self.goal, speed, now - self._best_time, scene, self._cloud)
+        cloud = self._raw_cloud if self.grasp is not None else self._cloud  # plan_grasp sets the target aside itself
+        f.update(now, self._q, self.goal, speed, now - self._best_time, scene, cloud, self.grasp)
         t0 = time.perf_counter()
         target = f.command(self._q, self.goal)
         if target is not None:
@@ -383,6 +422,20 @@ class ClosedLoopController:
             return evasion
         reason = "reached" if reached else f"following the background plan ({f.waypoint})"
         return TickOutcome(target, "reached" if reached else "tracking", reason, OK, values)
+
+    def _grasp_hold(self, now: float, hold: np.ndarray) -> TickOutcome:
+        """The tick at a grasp goal without a path to follow: hold (a grasp is approached along background plans
+        only); the goal is given up after no_progress_s without one."""
+        cfg, f = self.config, self.follower
+        values = {"command_source": "hold", "plan_note": f.note, "grasp": self.grasp_note}
+        if now - self._best_time > cfg.no_progress_s:
+            self._failed = (
+                f"grasp goal not reached: no plan to follow for {cfg.no_progress_s:.0f} s ({f.note}); holding until "
+                "a new goal or enable"
+            )
+            return TickOutcome(hold, "failed", self._failed, ERROR, values)
+        return TickOutcome(hold, "holding", f"holding: a grasp goal is approached along a plan only ({f.note})", WARN,
+                           values)  # fmt: skip
 
     def _evasion(
         self, now: float, values: dict[str, Any], fresh_cloud: bool = False, command: np.ndarray | None = None

@@ -43,6 +43,40 @@ class GraspConfig:
     """the straight approach's steps and IK"""
 
 
+@dataclass(frozen=True)
+class GraspSpec:
+    """A goal marked as a grasp, as a caller gives it (the nodes' `grasp_pose`, `~/plan_grasp`, a scenario's
+    `"grasp": true`): the pre-grasp distance and how the target is found."""
+
+    approach_m: float = DEFAULT_APPROACH_M
+    """[m] pre-grasp distance back along the hand's z axis (0: straight to the grasp, see plan_grasp)"""
+    target_radius: float | None = None
+    """[m] the target is every point within this of the TCP; None: found from the cloud"""
+    target_box: TargetBox | None = None
+    """the target is every point inside this box (not with target_radius)"""
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.approach_m) and self.approach_m >= 0):
+            raise ValueError(f"approach_m must be a non-negative number of metres, got {self.approach_m!r}")
+        r = self.target_radius
+        if r is not None and not (np.isfinite(r) and r > 0):
+            raise ValueError(f"target_radius must be a positive number of metres or None, got {r!r}")
+        if r is not None and self.target_box is not None:
+            raise ValueError("give a target radius or a target box, not both")
+
+    def split(self, cloud: np.ndarray, goal: Goal, config: GraspTargetConfig | None = None):
+        """The TargetSplit of cloud (N, 3) [m] at the grasp goal (perception/grasp_target.split_target)."""
+        return split_target(cloud, goal.position, goal.rotation, config, self.target_radius, self.target_box)
+
+
+def plan_grasp_spec(planner, start_q: np.ndarray, goal: Goal, cloud: np.ndarray, spec: GraspSpec) -> PlanResult:
+    """plan_grasp with the approach and target of `spec` (cloud (N, 3) [m], no origins)."""
+    return plan_grasp(
+        planner, start_q, goal, cloud, None, spec.approach_m, target_radius=spec.target_radius,
+        target_box=spec.target_box,
+    )  # fmt: skip
+
+
 def _exact_check(planner):
     """A context in which the planner's hard check is the exact geometric one (the learned backend's
     geometric_only), or nothing to change."""

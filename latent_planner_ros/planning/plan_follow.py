@@ -43,6 +43,7 @@ class PlanFollower:
         self._ident = 0
         self._requested: np.ndarray | None = None  # goal position (3,) [m] of the newest request
         self._requested_at = -np.inf  # [s]
+        self._requested_grasp = None  # the GraspSpec of the newest request (None: a reach goal)
         self._answered = True  # the newest request has its outcome
         self._retry = False  # the newest request re-plans a goal planned before
         self._stream: TrajectoryStreamer | None = None
@@ -69,7 +70,7 @@ class PlanFollower:
     def forget(self) -> None:
         """Drop the path and forget the requests (a cleared goal, a disabled loop): outcomes still running are
         ignored when they arrive."""
-        self._stream, self._plan_goal, self._requested = None, None, None
+        self._stream, self._plan_goal, self._requested, self._requested_grasp = None, None, None, None
         self._ident += 1
         self._answered = True
 
@@ -80,12 +81,14 @@ class PlanFollower:
             self.note = f"plan dropped: {reason}"
         self._stream, self._plan_goal = None, None
 
-    def update(self, now: float, q: np.ndarray, goal: Goal, goal_speed: float, stalled_s: float, scene, cloud):
+    def update(
+        self, now: float, q: np.ndarray, goal: Goal, goal_speed: float, stalled_s: float, scene, cloud, grasp=None
+    ):
         """Take up a finished plan and request a new one when it is worth it; once per tick.
 
         Args:
             now: time [s]; q: measured state (7,) [rad]; goal: the goal to plan for; goal_speed: its speed [m/s];
-            stalled_s: time [s] since the loop last made progress; scene, cloud: as in PlanRequest.
+            stalled_s: time [s] since the loop last made progress; scene, cloud, grasp: as in PlanRequest.
         """
         outcome = self.runner.poll(now)
         if outcome is not None:
@@ -93,13 +96,15 @@ class PlanFollower:
         if goal_speed > STILL_GOAL_MPS or self.runner.busy or self._stream is not None:
             return
         new_goal = self._requested is None or np.linalg.norm(goal.position - self._requested) > self.follow_goal_tol_m
+        new_goal = new_goal or grasp != self._requested_grasp
         retry = now - self._requested_at > self.replan_after_s and stalled_s > self.replan_after_s
         if new_goal or retry:
             self._retry = not new_goal
             self._ident += 1
             self._requested, self._requested_at, self._answered = goal.position.copy(), now, False
+            self._requested_grasp = grasp
             self.plans["requested"] += 1
-            self.runner.submit(PlanRequest(q.copy(), goal, scene, cloud, self._ident), now)
+            self.runner.submit(PlanRequest(q.copy(), goal, scene, cloud, self._ident, grasp), now)
 
     def _take(self, outcome: PlanOutcome, goal: Goal) -> None:
         if outcome.request.ident != self._ident:

@@ -21,6 +21,7 @@ import numpy as np
 
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.goal_reachability import refused_result, unreachable_reason
+from latent_planner_ros.planning.grasp import GraspSpec, plan_grasp_spec
 from latent_planner_ros.planning.result import PlanResult
 
 
@@ -28,13 +29,15 @@ from latent_planner_ros.planning.result import PlanResult
 class PlanRequest:
     """One plan: from q (7,) [rad] to goal, in scene (what the planner's backend consumes: a cloud (N, 3) [m]
     or a scene embedding; None without collision checking) with the raw cloud (N, 3) [m] for the learned
-    backend's hard check (or None); ident numbers the requests of one caller."""
+    backend's hard check (or None); ident numbers the requests of one caller. With `grasp` (a GraspSpec) the
+    goal is a grasp: planned by planning/grasp.plan_grasp on the raw cloud (the target set aside there)."""
 
     q: np.ndarray
     goal: Goal
     scene: Any
     cloud: np.ndarray | None
     ident: int
+    grasp: GraspSpec | None = None
 
 
 @dataclass(frozen=True)
@@ -62,6 +65,11 @@ def planning_function(planner: Any, lock: threading.Lock | None = None, reachabi
             why = unreachable_reason(planner.panda, planner.checker, request.goal, request.q) if reachability else ""
             if why:
                 return refused_result(planner.panda, request.q, request.goal, f"unreachable: {why}", t0)
+            if request.grasp is not None:
+                cloud = request.cloud if request.cloud is not None else request.scene
+                if cloud is None:
+                    return refused_result(planner.panda, request.q, request.goal, "a grasp goal needs a cloud", t0)
+                return plan_grasp_spec(planner, request.q, request.goal, np.asarray(cloud), request.grasp)
             backend = getattr(planner, "backend", None)
             if request.cloud is not None and hasattr(backend, "set_cloud"):
                 backend.set_cloud(request.cloud)
