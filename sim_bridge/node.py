@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import rclpy
@@ -52,12 +53,12 @@ from msg_adapters import (
     xyz_to_cloud,
 )
 from sim_bridge.camera_config import CameraConfig
-from sim_bridge.camera_rig import DEFAULT_CAMERA, camera_from_params, camera_params
+from sim_bridge.camera_rig import DEFAULT_CAMERA, camera_from_params
 from sim_bridge.mjcf import DEPTH_CAMERA, OVERVIEW_CAMERA
 from sim_bridge.param_specs import param_specs
 from sim_bridge.params import ConfigError, from_params
 from sim_bridge.render import Recorder, Snapshotter
-from sim_bridge.ros_params import ConfigParams, descriptor
+from sim_bridge.ros_params import ConfigParams
 from sim_bridge.runner import Runner, Tick
 from sim_bridge.scenario import Scenario, ScenarioError
 from sim_bridge.scenario_files import load_scenario, parse_overrides
@@ -89,16 +90,13 @@ class SimNode(Node):
         self.config = params.config
         self._camera_params: dict[str, str] = {}  # <name>.<field> -> camera name, of the listed cameras but `camera`
         self.named_cameras: dict[str, CameraConfig] = {}
+        fields = param_specs(self.config.camera, SIM_RANGES)  # camera.*: the types, ranges and docs of each group
         for camera in self.config.cameras:
             if camera == DEFAULT_CAMERA:
                 continue
-            defaults = camera_params(camera, self.config.camera)
-            specs = param_specs(self.config.camera, SIM_RANGES)  # camera.<field>: the same types and ranges
-            for name, value in defaults.items():
-                spec = specs[name.split(".", 1)[1]]
-                self.declare_parameter(name, value, descriptor(spec))
-                self._camera_params[name] = camera
-            values = {n: self.get_parameter(n).value for n in defaults}
+            specs = {f"{camera}.{f}": replace(spec, name=f"{camera}.{f}") for f, spec in fields.items()}
+            values = params.declare(specs)  # defaults: the camera.* values
+            self._camera_params.update(dict.fromkeys(specs, camera))
             self.named_cameras[camera] = camera_from_params(camera, values, self.config.camera)
         self.sim = Sim(scenario_of(self.config), self.config, self.named_cameras)
         self.runner = Runner(self.sim, frame_rate=frame_rate)

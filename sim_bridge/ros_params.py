@@ -10,7 +10,10 @@ Every node of the suite declares its parameters through :class:`ConfigParams`:
   taken as that double, at start-up and at run time; the parameter stays a double. Any other type is refused
   with the full dotted name (``closed_loop.rate_hz: expected double, got bool True``);
 - a change reaches the node's callback as {dotted name: value} of its own parameters only (``use_sim_time``
-  and other parameters of rclpy pass through, accepted).
+  and other parameters of rclpy pass through, accepted);
+- further parameters outside the config (the sim's ``<camera>.*`` groups) can be declared the same way with
+  :meth:`ConfigParams.declare`: same descriptors, start-up checks and type screening; their changes go to the
+  node's own callback.
 """
 
 from __future__ import annotations
@@ -92,23 +95,36 @@ class ConfigParams:
     def __init__(self, node, config_cls: type, defaults=None, ranges: RangeTable = {}, read_only=()):  # noqa: B006
         self.node = node
         self.specs = param_specs(defaults if defaults is not None else config_cls(), ranges, read_only)
+        self._more: dict[str, ParamSpec] = {}  # parameters declared by `declare`, outside the config
         self._refusals: list[str] = []
-        overrides = getattr(node, "_parameter_overrides", {})  # YAML / -p values, before declaring them
         for spec in self.specs.values():
-            if spec.name in overrides:
-                ok, value = coerce(spec, overrides[spec.name].value)
-                if not ok:
-                    raise ConfigError(type_refusal(spec, overrides[spec.name].value))
-                overrides[spec.name] = Parameter(spec.name, TYPES[spec.type], value)
-            try:
-                node.declare_parameter(spec.name, spec.value, descriptor(spec))
-            except InvalidParameterValueException:  # outside the descriptor's range
-                value = overrides[spec.name].value if spec.name in overrides else spec.value
-                raise ConfigError(f"{spec.name}: {value!r} is outside its valid range {spec.range}") from None
-            except InvalidParameterTypeException as err:
-                raise ConfigError(f"{spec.name}: {err}") from None
+            self._declare(spec)
         self.config = from_params(config_cls, self.values())
         node.add_pre_set_parameters_callback(self._pre_set)
+
+    def declare(self, specs: Mapping[str, ParamSpec]) -> dict[str, Any]:
+        """Declare parameters outside the config ({name: spec}, each spec named by its full name) as the config's
+        are (ConfigError naming a bad start-up value); {name: current value}. A wrong type is refused with the name
+        as for the config's; the node's own set-parameters callback applies their changes."""
+        for name, spec in specs.items():
+            self._declare(spec)
+            self._more[name] = spec
+        return {name: _plain(self.node.get_parameter(name).value) for name in specs}
+
+    def _declare(self, spec: ParamSpec) -> None:
+        overrides = getattr(self.node, "_parameter_overrides", {})  # YAML / -p values, before declaring them
+        if spec.name in overrides:
+            ok, value = coerce(spec, overrides[spec.name].value)
+            if not ok:
+                raise ConfigError(type_refusal(spec, overrides[spec.name].value))
+            overrides[spec.name] = Parameter(spec.name, TYPES[spec.type], value)
+        try:
+            self.node.declare_parameter(spec.name, spec.value, descriptor(spec))
+        except InvalidParameterValueException:  # outside the descriptor's range
+            value = overrides[spec.name].value if spec.name in overrides else spec.value
+            raise ConfigError(f"{spec.name}: {value!r} is outside its valid range {spec.range}") from None
+        except InvalidParameterTypeException as err:
+            raise ConfigError(f"{spec.name}: {err}") from None
 
     @property
     def names(self) -> dict[str, Any]:
@@ -129,7 +145,7 @@ class ConfigParams:
         self._refusals = []
         out = []
         for p in params:
-            spec = self.specs.get(p.name)
+            spec = self.specs.get(p.name) or self._more.get(p.name)
             if spec is None or p.type_ == Parameter.Type.NOT_SET:
                 out.append(p)
                 continue
