@@ -24,6 +24,7 @@ BENCH = {
     "collision": "latent_planner_ros.bench.collision:main",
     "conveyor": "latent_planner_ros.bench.conveyor:main",
     "faults": "latent_planner_ros.bench.faults:main",
+    "fuzz": "latent_planner_ros.bench.fuzz:main",
     "lspp": "latent_planner_ros.bench.lspp:main",
     "planner": "latent_planner_ros.bench.planner:main",
     "reach": "latent_planner_ros.bench.reach:main",

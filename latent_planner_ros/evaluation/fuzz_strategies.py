@@ -30,10 +30,12 @@ ANY_FLOAT = st.floats(allow_nan=True, allow_infinity=True) | st.sampled_from(SPE
 
 def floats(low: float = -2.0, high: float = 2.0) -> st.SearchStrategy[float]:
     """Mostly plausible values in [low, high], sometimes any float."""
-    return st.one_of(st.floats(low, high), st.floats(low, high), ANY_FLOAT)
+    return st.one_of(*[st.floats(low, high)] * 4, ANY_FLOAT)
 
 
 FRAMES = st.one_of(
+    st.just("world"),
+    st.just("world"),
     st.sampled_from(["world", "", "panda_link0", "camera_depth_optical_frame", "map", "fr3_link0", " world"]),
     st.text(max_size=16),
 )
@@ -60,7 +62,7 @@ def float_lists(min_size: int = 0, max_size: int = 16, low: float = -2.0, high: 
 def joint_names(draw, valid: tuple[str, ...] = JOINT_NAMES) -> list[str]:
     """The joints in some order (possibly extra, missing or duplicated ones), or any names."""
     names = list(draw(st.permutations(valid)))
-    choice = draw(st.integers(0, 4))
+    choice = draw(st.sampled_from([0, 0, 0, 1, 2, 3, 4]))  # mostly the right joints
     if choice == 1:  # a duplicate
         names.insert(draw(st.integers(0, len(names))), draw(st.sampled_from(names)))
     elif choice == 2:  # one missing
@@ -225,6 +227,31 @@ def embedding_clouds(draw) -> PointCloud2:
     return msg
 
 
+@st.composite
+def embedding_variants(draw, base: PointCloud2) -> PointCloud2:
+    """A valid scene embedding (`base`) changed in content, not layout: features scaled (to zero, negative, huge
+    or NaN), voxels dropped or repeated, centres moved off the grid; sometimes also a layout fault."""
+    from msg_adapters import cloud_to_embedding
+
+    centres, features = (a.copy() for a in cloud_to_embedding(base))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    kind = draw(st.integers(0, 4))
+    if kind == 0:
+        features *= np.float32(draw(st.sampled_from([0.0, -1.0, 10.0, 1e10, 3e38])))
+    elif kind == 1 and len(centres):
+        keep = rng.random(len(centres)) < draw(st.floats(0.0, 1.0))
+        centres, features = centres[keep], features[keep]
+    elif kind == 2 and len(centres):
+        rows = rng.integers(0, len(centres), draw(st.integers(1, 2 * len(centres))))
+        centres, features = centres[rows], features[rows]
+    elif kind == 3:
+        centres += rng.normal(0.0, draw(st.sampled_from([1e-4, 0.03, 1.0, 100.0])), centres.shape).astype(np.float32)
+    elif kind == 4 and features.size:
+        features.flat[rng.integers(0, features.size, 3)] = draw(st.sampled_from([np.nan, np.inf, 3e38]))
+    msg = xyz_to_cloud(centres, base.header.frame_id, base.header.stamp, features=features)
+    return _mutate_cloud(draw, msg) if draw(st.integers(0, 3)) == 0 else msg
+
+
 # -- cylinder markers --------------------------------------------------------------------------------------------
 _MARKER_TYPES = [Marker.CYLINDER] * 4 + [Marker.CUBE, Marker.SPHERE, Marker.ARROW, Marker.TEXT_VIEW_FACING]
 
@@ -259,8 +286,9 @@ def joint_trajectories(draw, valid: tuple[str, ...] = JOINT_NAMES) -> JointTraje
     """Trajectories near the ready pose with increasing times, or any sizes, values and times."""
     names = draw(joint_names(valid))
     n, k = len(names), draw(st.integers(0, 12))
-    t = np.cumsum(draw(st.lists(st.floats(0.0, 0.5), min_size=k, max_size=k))) if k else np.zeros(0)
+    t = np.cumsum(draw(st.lists(st.floats(0.01, 0.5), min_size=k, max_size=k))) if k else np.zeros(0)
     plausible = draw(st.booleans())
+    derivatives = draw(st.sampled_from(["none", "velocities", "both", "any"]))
     points = []
     for i in range(k):
         if plausible:
@@ -271,10 +299,11 @@ def joint_trajectories(draw, valid: tuple[str, ...] = JOINT_NAMES) -> JointTraje
             positions = draw(st.one_of(st.lists(floats(-3.0, 3.0), min_size=n, max_size=n), float_lists(max_size=10)))
             tfs = draw(durations())
         point = JointTrajectoryPoint(positions=positions, time_from_start=tfs)
-        if draw(st.booleans()):
-            point.velocities = draw(st.one_of(st.lists(floats(-1.0, 1.0), min_size=n, max_size=n), float_lists()))
-        if draw(st.booleans()):
-            point.accelerations = draw(st.one_of(st.lists(floats(-1.0, 1.0), min_size=n, max_size=n), float_lists()))
+        values = st.lists(floats(-1.0, 1.0), min_size=n, max_size=n)
+        if derivatives in ("velocities", "both") or (derivatives == "any" and draw(st.booleans())):
+            point.velocities = draw(values if derivatives != "any" else values | float_lists())
+        if derivatives == "both" or (derivatives == "any" and draw(st.booleans())):
+            point.accelerations = draw(values if derivatives != "any" else values | float_lists())
         points.append(point)
     msg = JointTrajectory(joint_names=names, points=points)
     msg.header.stamp = draw(st.one_of(st.just(Time()), stamps()))
@@ -298,7 +327,28 @@ PARAMETER_VALUES = st.one_of(
 """any value a ROS parameter can hold (rclpy infers its type)"""
 
 
-def parameters(names: list[str]) -> st.SearchStrategy[Parameter]:
-    """A Parameter of one of `names` (or an unknown name) with any value."""
-    name = st.sampled_from(names) | st.sampled_from(["no_such_parameter", "use_sim_time"])
-    return st.builds(lambda n, v: Parameter(n, value=v), name, PARAMETER_VALUES)
+def _near(value) -> st.SearchStrategy:
+    """Values of the type of `value`, near it, at the edges of its range, or far off."""
+    if isinstance(value, bool):
+        return st.booleans()
+    if isinstance(value, int):
+        return st.one_of(st.integers(value - 3, value + 3), st.sampled_from([0, -1, 2 * value, 10 * value]), INT64)
+    if isinstance(value, float):
+        scaled = st.sampled_from([0.0, -1.0, 0.5, 2.0, 10.0, 1e6]).map(lambda k: k * value)
+        return st.one_of(scaled, st.floats(-abs(value) - 1.0, 3.0 * abs(value) + 1.0), ANY_FLOAT)
+    if isinstance(value, str):
+        return st.one_of(st.just(value), st.just(""), st.sampled_from(["learned", "geometric", "none", "exact"]),
+                         st.text(max_size=24))  # fmt: skip
+    if isinstance(value, list | tuple) and value:
+        return st.lists(_near(value[0]), max_size=max(8, 2 * len(value)))
+    return PARAMETER_VALUES
+
+
+@st.composite
+def parameters(draw, current: dict) -> Parameter:
+    """A Parameter named as one of `current` ({name: value}, or an unknown name) with a value of its type near
+    its current one, or of any type."""
+    names = sorted(current)
+    name = draw(st.sampled_from(names + names[: len(names) // 20] + ["no_such_parameter", "use_sim_time"]))
+    value = draw(_near(current[name]) if name in current and draw(st.integers(0, 3)) else PARAMETER_VALUES)
+    return Parameter(name, value=value)

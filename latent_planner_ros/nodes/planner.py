@@ -114,6 +114,11 @@ def _planner_fields(config: PlannerNodeConfig) -> dict:
     return {name: getattr(config, name) for name in REBUILT_BY}
 
 
+FAR_M = 100.0
+"""[m] cloud points with a coordinate beyond this are dropped: far out of the arm's reach, and finite outliers
+(3e38 from a broken driver) overflowed the collision check's occupancy grid"""
+
+
 def _locked(method):
     """Run the method under the node's state lock (the control callbacks against ~/plan and parameter swaps)."""
 
@@ -347,7 +352,8 @@ class PlannerNode(Node):
         self._cloud_sources = fused.describe()
         if fused.stale:
             self._error(f"clouds left out as stale: {', '.join(fused.stale)}")
-        cloud, _ = limit_points(fused.points, self.config.cloud_max_points, self.config.cloud_voxel_m)
+        near = fused.points[np.all(np.abs(fused.points) <= FAR_M, axis=1)]
+        cloud, _ = limit_points(near, self.config.cloud_max_points, self.config.cloud_voxel_m)
         self._cloud_points = (sum(self.fusion.received[t] for t in fused.sources), len(cloud))
         self._last_cloud = (cloud, self._cloud_time)
         self._apply_cloud(cloud, self._cloud_time)

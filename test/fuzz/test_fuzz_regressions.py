@@ -42,3 +42,27 @@ def test_a_pose_with_a_huge_quaternion_is_normalised():
     msg.pose.orientation.x, msg.pose.orientation.w = 1e-12, 0.0
     with pytest.raises(AdapterError, match="zero norm"):
         pose_stamped_to_target(msg)
+
+
+@pytest.mark.ros
+def test_the_planner_drops_far_outliers_of_a_cloud():
+    """Finding: a cloud with a finite outlier at 3e38 m made the planner's tick raise (IndexError / "array is too
+    big" from the collision check's occupancy grid), which would stop the node; points beyond FAR_M are dropped."""
+    import rclpy
+
+    from latent_planner_ros.evaluation.fault_inputs import box_cloud
+    from latent_planner_ros.nodes.planner import FAR_M, PlannerNode
+    from msg_adapters import cloud_to_xyz, xyz_to_cloud
+
+    box = cloud_to_xyz(box_cloud())
+    rclpy.init()
+    node = PlannerNode()
+    try:
+        for outlier in ([3e38, 0.0, 0.0], [0.5, -3e38, 1e30], [FAR_M * 2, 0.0, 0.0]):
+            node._on_cloud("camera/points", xyz_to_cloud(np.vstack([box, [outlier]]).astype(np.float32)))
+            node._on_tick()
+            assert node._cloud_points == (len(box) + 1, len(box))
+            assert np.abs(node.modes.amp_ls.cloud).max() < 1.0
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()
