@@ -34,7 +34,7 @@ def collision_rgb(p: float) -> tuple[int, int, int]:
     return tuple(int(round(a + (b - a) * p)) for a, b in zip(ROBOT_RGB, COLLISION_RGB, strict=True))
 
 
-def height_colors(points: np.ndarray, z_lo: float = 0.0, z_hi: float = 0.6) -> np.ndarray:
+def height_colors(points: np.ndarray, z_lo: float = 0.0, z_hi: float = 0.25) -> np.ndarray:
     """(N, 3) uint8 colours of points (N, 3) [m] by height: teal at `z_lo` to yellow at `z_hi`."""
     t = np.clip((points[:, 2] - z_lo) / (z_hi - z_lo), 0.0, 1.0)[:, None]
     lo, hi = np.array([30, 150, 160]), np.array([250, 220, 60])
@@ -74,8 +74,8 @@ class SuiteScene:
         self.meshes = robot_meshes()
         scene, gui = server.scene, server.gui
         scene.set_up_direction("+z")
-        server.initial_camera.position = (1.7, -1.3, 1.1)
-        server.initial_camera.look_at = (0.35, 0.0, 0.3)
+        server.initial_camera.position = (1.45, -1.05, 0.85)
+        server.initial_camera.look_at = (0.4, 0.0, 0.2)
         scene.add_grid("/table", width=2.0, height=2.0, cell_size=0.1, position=(0.3, 0.0, 0.0))
         self._robot = {
             m.name: scene.add_mesh_simple(f"/robot/{m.name}", m.vertices, m.faces, color=ROBOT_RGB, visible=False)

@@ -19,7 +19,7 @@ def test_collision_colour_runs_from_the_robot_grey_to_red_and_clamps():
 
 
 def test_height_colours_are_per_point_and_ordered_by_height():
-    pts = np.array([[0, 0, -1.0], [0, 0, 0.3], [0, 0, 2.0]])
+    pts = np.array([[0, 0, -1.0], [0, 0, 0.1], [0, 0, 2.0]])
     c = height_colors(pts)
     assert c.shape == (3, 3) and c.dtype == np.uint8
     assert c[0].tolist() == [30, 150, 160] and c[2].tolist() == [250, 220, 60]

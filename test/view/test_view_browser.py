@@ -35,7 +35,7 @@ class FakeSuite:
     """joint_states (50 Hz), camera/points (10 Hz, N_POINTS), planner/status (disabled, p_collision 0.7), a
     planner/enable service and a goal_pose subscription, spun in this process."""
 
-    def __init__(self, domain_id: int):
+    def __init__(self, domain_id: int, cloud_hz: float = 10.0):
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import PoseStamped
@@ -71,7 +71,7 @@ class FakeSuite:
             0.02, lambda: pub_joints.publish(q_to_joint_state(self.q, stamp=node.get_clock().now().to_msg()))
         )
         node.create_timer(
-            0.1, lambda: pub_cloud.publish(xyz_to_cloud(points, "world", node.get_clock().now().to_msg()))
+            1.0 / cloud_hz, lambda: pub_cloud.publish(xyz_to_cloud(points, "world", node.get_clock().now().to_msg()))
         )
         status = {"state": "disabled", "p_collision": 0.7, "tick_ms": 3.2, "last_error": ""}
         node.create_timer(0.2, lambda: pub_status.publish(status_array("planner", 0, "disabled", status)))
