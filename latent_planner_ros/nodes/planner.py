@@ -1,11 +1,11 @@
 """planner node: AMP-LS closed-loop joint targets at 10 Hz and one-shot plans on a service.
 
-Subscribes joint_states, goal_pose, scene_embedding (learned backend) and each topic of `cloud_topics` (default
-camera/points; for the geometric backend, the hard check, and the goal-inside-obstacle check). Only the newest
-cloud of each topic is converted, once per tick, so fast cameras cannot starve the control loop; the topics'
-newest clouds are fused in `world` (perception/cloud_fusion.py: one stamped more than `cloud_max_age_s` from the
-newest is left out and named on status; a cloud in another frame is refused with the topic and reason) and
-clouds above `cloud_max_points` are voxel-downsampled.
+Subscribes joint_states, goal_pose, grasp_pose (a grasp goal: planning/closed_loop.py), scene_embedding (learned
+backend) and each topic of `cloud_topics` (default camera/points; for the geometric backend, the hard check, and the
+goal-inside-obstacle check). Only the newest cloud of each topic is converted, once per tick, so fast cameras cannot
+starve the control loop; the topics' newest clouds are fused in `world` (perception/cloud_fusion.py: one stamped
+more than `cloud_max_age_s` from the newest is left out and named on status; a cloud in another frame is refused
+with the topic and reason) and clouds above `cloud_max_points` are voxel-downsampled.
 Joint states that are malformed or far outside the joint limits are refused (the last good one goes stale and
 commands stop).
 
@@ -74,7 +74,7 @@ from latent_planner_ros.planning.backends import make_backend
 from latent_planner_ros.planning.closed_loop import ClosedLoopController, TickOutcome
 from latent_planner_ros.planning.cylinder_backend import CylinderBackend
 from latent_planner_ros.planning.goal import Goal
-from latent_planner_ros.planning.grasp import grasp_reason, plan_grasp
+from latent_planner_ros.planning.grasp import GraspSpec, grasp_reason, plan_grasp
 from latent_planner_ros.planning.lspp import make_lspp
 from latent_planner_ros.planning.plan_runner import PlanRequest, ThreadedPlanRunner, planning_function
 from latent_planner_ros.planning.planner_modes import LSPP, PlannerModes
@@ -170,6 +170,7 @@ class PlannerNode(Node):
         self.pub_diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
         self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10)
+        self.create_subscription(PoseStamped, "grasp_pose", self._on_grasp_goal, 10)
         for cloud_topic in self.config.cloud_topics:
             self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2)
         self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, 10)
@@ -235,7 +236,7 @@ class PlannerNode(Node):
             if learned[0] != learned[1]:  # the scene_embedding subscription exists only with the learned backend
                 raise ConfigError("amp_ls.collision_backend: a change to or from learned needs a restart of the node")
             vae = self._checked_checkpoints(config, base, base_vae)
-        except (ConfigError, ValueError, TypeError, CheckpointError) as err:
+        except (ConfigError, ValueError, TypeError) as err:
             return SetParametersResult(successful=False, reason=str(err))
         with self._lock:
             self._accepted = (config, vae)
@@ -247,14 +248,22 @@ class PlannerNode(Node):
         return SetParametersResult(successful=True)
 
     def _checked_checkpoints(self, config: PlannerNodeConfig, base: PlannerNodeConfig, base_vae):
-        """The VAE of `config`, each changed checkpoint loaded once to see that it is good (CheckpointError)."""
+        """The VAE of `config`; each changed checkpoint is loaded once to see that it is good (ConfigError naming
+        the parameter and the problem)."""
+
+        def load(name: str, loader):
+            try:
+                return loader()
+            except CheckpointError as err:
+                raise ConfigError(f"{name}: {err}") from None
+
         if config.collision_checkpoint != base.collision_checkpoint and config.amp_ls.collision_backend == "learned":
-            make_backend("learned", config.collision_checkpoint)
+            load("collision_checkpoint", lambda: make_backend("learned", config.collision_checkpoint))
         if config.lspp_checkpoint != base.lspp_checkpoint:
-            CylinderBackend.load(config.lspp_checkpoint or None)
+            load("lspp_checkpoint", lambda: CylinderBackend.load(config.lspp_checkpoint or None))
         if config.vae_checkpoint == base.vae_checkpoint:
             return base_vae
-        return load_vae(config.vae_checkpoint or None)[0]
+        return load("vae_checkpoint", lambda: load_vae(config.vae_checkpoint or None)[0])
 
     def _build(self, request: tuple[PlannerNodeConfig, object]) -> tuple[PlannerModes, AmpLs]:
         """On the rebuild worker: the planners of an accepted configuration (the slow part of a change)."""
@@ -363,12 +372,12 @@ class PlannerNode(Node):
         self.modes.lspp.set_cloud(cloud)  # LSPP plans around the cylinders; the cloud only checks goals
         controller = self.modes.amp_ls
         backend = controller.planner.backend
+        obstacles = controller.set_cloud(cloud, received)  # at a grasp goal without the target's points
         if backend.name == "geometric":
-            controller.set_scene(cloud, received, cloud=cloud)
+            controller.set_scene(obstacles, received)
             return
         if hasattr(backend, "set_cloud"):  # learned: the raw cloud feeds the hard check of each step
-            backend.set_cloud(cloud)
-        controller.set_cloud(cloud, received)
+            backend.set_cloud(obstacles)
 
     @_locked
     def _on_embedding(self, msg: PointCloud2) -> None:
@@ -408,15 +417,29 @@ class PlannerNode(Node):
 
     @_locked
     def _on_goal(self, msg: PoseStamped) -> None:
+        self._take_goal(msg, grasp=False)
+
+    @_locked
+    def _on_grasp_goal(self, msg: PoseStamped) -> None:
+        self._take_goal(msg, grasp=True)
+
+    def _take_goal(self, msg: PoseStamped, grasp: bool) -> None:
+        """goal_pose, or (grasp) grasp_pose: a grasp goal with the grasp_approach_m and grasp_target_radius_m
+        parameters (planning/closed_loop.py: its target's points set aside, reached along a background plan)."""
+        topic = "grasp_pose" if grasp else "goal_pose"
         try:
             goal = self._goal_from(msg)
+            cfg = self.config
+            spec = GraspSpec(cfg.grasp_approach_m, cfg.grasp_target_radius_m or None) if grasp else None
         except (AdapterError, ValueError) as err:
-            self._error(f"goal_pose refused: {err}")
+            self._error(f"{topic} refused: {err}")
             return
         self._use_latest_cloud()
-        accepted, reason = self.modes.set_goal(goal, self._now())
+        accepted, reason = self.modes.set_goal(goal, self._now(), spec)
         if not accepted:
             self._error(reason)
+        elif self._last_cloud is not None:  # the target is set aside from (or back in) the checked cloud
+            self._apply_cloud(*self._last_cloud)
 
     # -- control ------------------------------------------------------------------------------------
     def _on_tick(self) -> None:
@@ -563,6 +586,7 @@ class PlannerNode(Node):
             "cloud_points_used": points_used,
             "cloud_sources": self._cloud_sources,
             "execution_owner": self.owner.owner,
+            "grasp": self.modes.amp_ls.grasp_note if self.modes.grasp is not None else "",
             **o.values,
         }
         stamp = self.get_clock().now().to_msg()

@@ -15,6 +15,7 @@ import numpy as np
 from latent_planner_ros.data.cylinders import validate_cylinders
 from latent_planner_ros.planning.closed_loop import ClosedLoopController, TickOutcome
 from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.grasp import GraspSpec
 
 AMP_LS, LSPP = "amp_ls", "lspp"
 
@@ -41,6 +42,7 @@ class PlannerModes:
         self.amp_ls, self.lspp = amp_ls, lspp
         self.cylinders = np.zeros((0, 4))
         self.goal: Goal | None = None
+        self.grasp: GraspSpec | None = None  # the goal is a grasp (AMP-LS mode only)
 
     @property
     def mode(self) -> str:
@@ -73,12 +75,15 @@ class PlannerModes:
             self.lspp.set_scene(cylinders, now)
         if self.mode != before:
             self.active.restart(now)
+            if self.goal is not None and self.grasp is not None and self.mode == LSPP:
+                self._drop_goal()
+                return "grasp goal dropped: cylinder obstacles switch to LSPP, which plans position-only goals"
             if self.goal is not None:
                 ok, reason = self.check_goal(self.goal)
                 if not ok:
                     self._drop_goal()
                     return reason
-                self.active.set_goal(self.goal, now)
+                self.active.set_goal(self.goal, now, self.grasp)
             return ""
         if self.goal is not None and self.mode == LSPP:
             ok, reason = self.check_goal(self.goal)
@@ -88,7 +93,7 @@ class PlannerModes:
         return ""
 
     def _drop_goal(self) -> None:
-        self.goal = None
+        self.goal, self.grasp = None, None
         self.amp_ls.clear_goal()
         self.lspp.clear_goal()
 
@@ -108,13 +113,20 @@ class PlannerModes:
             return False, f"goal refused: inside cylinder obstacle {i} (x {x:.2f}, y {y:.2f}, h {h:.2f}, r {r:.2f} m)"
         return True, ""
 
-    def set_goal(self, goal: Goal, now: float) -> tuple[bool, str]:
-        """Accept or refuse a goal for the active loop; the other loop takes it over at a mode switch."""
-        ok, reason = self.check_goal(goal)
-        if not ok:
-            return False, reason
-        self.goal = goal
-        return self.active.set_goal(goal, now)
+    def set_goal(self, goal: Goal, now: float, grasp: GraspSpec | None = None) -> tuple[bool, str]:
+        """Accept or refuse a goal for the active loop; the other loop takes it over at a mode switch. A grasp
+        goal (`grasp`, see ClosedLoopController.set_goal) needs the point cloud: refused in LSPP mode."""
+        if grasp is not None:
+            if self.mode == LSPP:
+                return False, "grasp goal refused: cylinder obstacles are set (LSPP plans position-only goals)"
+            ok, reason = self.amp_ls.set_goal(goal, now, grasp)
+        else:
+            ok, reason = self.check_goal(goal)
+            if ok:
+                ok, reason = self.active.set_goal(goal, now)
+        if ok:
+            self.goal, self.grasp = goal, grasp
+        return ok, reason
 
     def set_enabled(self, enabled: bool) -> None:
         self.amp_ls.set_enabled(enabled)
