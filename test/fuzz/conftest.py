@@ -15,7 +15,7 @@ _COMMON = {
     "deadline": None,
     "suppress_health_check": [HealthCheck.function_scoped_fixture, HealthCheck.too_slow, HealthCheck.data_too_large],
 }
-settings.register_profile("fast", max_examples=150, derandomize=True, **_COMMON)
+settings.register_profile("fast", max_examples=100, derandomize=True, **_COMMON)
 settings.register_profile("long", max_examples=2000, **_COMMON)
 settings.load_profile(os.environ.get("FUZZ_PROFILE", "fast"))
 

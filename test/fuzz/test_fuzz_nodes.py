@@ -38,7 +38,7 @@ def test_node_callback(harnesses, node, boundary):
     b = fuzz.all_boundaries()[f"{node}.{boundary}"]
     outcomes = []
 
-    @examples(0.15)
+    @examples(0.1)
     @given(b.strategy)
     def run(msg):
         outcomes.append(b.check(msg))
