@@ -143,8 +143,12 @@ class SimNode(Node):
             config = from_params(SimConfig, ours, base=self.config)
             if {"scenario", "scenario_overrides"} & set(ours):
                 scenario_of(config)  # refuse a scenario that would not load
-        except (ConfigError, ScenarioError) as err:
+        except ConfigError as err:
             return SetParametersResult(successful=False, reason=str(err))
+        except ScenarioError as err:  # named by the parameter that was set
+            name = "scenario" if "scenario" in ours else "scenario_overrides"
+            reason = str(err) if str(err).startswith(f"{name}:") else f"{name}: {err}"
+            return SetParametersResult(successful=False, reason=reason)
         if config.real_time_factor != self.config.real_time_factor:
             self.runner.set_real_time_factor(config.real_time_factor)
         self.config = config

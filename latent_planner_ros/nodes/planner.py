@@ -301,8 +301,9 @@ class PlannerNode(Node):
         self.modes.set_enabled(enabled)
 
     def _swap(self, config: PlannerNodeConfig, vae, modes: PlannerModes, plan_planner: AmpLs) -> None:
-        """Take up rebuilt planners and their configuration: the inputs, goal and cylinders carry over."""
-        goal, cylinders = self.modes.goal, self.modes.cylinders
+        """Take up rebuilt planners and their configuration: the inputs, goal (a grasp goal as a grasp) and cylinders
+        carry over."""
+        goal, grasp, cylinders = self.modes.goal, self.modes.grasp, self.modes.cylinders
         old_runner = self.modes.amp_ls.follower.runner if self.modes.amp_ls.follower is not None else None
         self._apply(config)
         self.modes, self.vae, self.plan_planner = modes, vae, plan_planner
@@ -314,7 +315,9 @@ class PlannerNode(Node):
             self._apply_cloud(*self._last_cloud)
         self.modes.set_cylinders(cylinders, self._now())
         if goal is not None:
-            self.modes.set_goal(goal, self._now())
+            self.modes.set_goal(goal, self._now(), grasp)
+            if grasp is not None and self._last_cloud is not None:  # the target's points set aside again
+                self._apply_cloud(*self._last_cloud)
 
     def _replace_timer(self, timer, rate_hz: float, callback):
         timer.cancel()

@@ -86,10 +86,16 @@ class PlannerNodeConfig:
             if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) and 0 <= v <= high):
                 raise ValueError(f"{name} must be a number in [0, {high}], got {v!r}")
         lspp = self.lspp
-        if lspp.collision_backend != "cylinders" or not lspp.use_collision or lspp.use_orientation:
+        required = {
+            "lspp.collision_backend": lspp.collision_backend == "cylinders",
+            "lspp.use_collision": lspp.use_collision,
+            "lspp.use_orientation": not lspp.use_orientation,
+        }
+        wrong = [name for name, ok in required.items() if not ok]
+        if wrong:
             raise ValueError(
-                "lspp must plan around the cylinders with position-only goals: "
-                "lspp.collision_backend = cylinders, lspp.use_collision = true, lspp.use_orientation = false"
+                f"{wrong[0]}: lspp must plan around the cylinders with position-only goals "
+                "(lspp.collision_backend = cylinders, lspp.use_collision = true, lspp.use_orientation = false)"
             )
 
 

@@ -86,8 +86,10 @@ class SceneEncoderNode(Node):
         try:
             config = from_params(SceneEncoderNodeConfig, ours, base=self.config)
             encoder = _load_encoder(config.checkpoint) if config.checkpoint != self.config.checkpoint else None
-        except (ConfigError, CheckpointError) as err:
+        except ConfigError as err:
             return SetParametersResult(successful=False, reason=str(err))
+        except CheckpointError as err:
+            return SetParametersResult(successful=False, reason=f"checkpoint: {err}")
         if encoder is not None:
             self.encoder = encoder
         if config.status_rate_hz != self.config.status_rate_hz:

@@ -17,6 +17,8 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 
 from latent_planner_ros.nodes.rebuild_worker import RebuildWorker
+from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.grasp import GraspSpec
 from latent_planner_ros.robot.limits import Q_READY
 from test.nodes.test_planner_node import REPO, _run, _stop
 
@@ -74,7 +76,9 @@ def set_double(name, value):
 
 goal = problem.goal
 target = target_to_pose_stamped(goal.position, matrix_to_quat(goal.rotation))
-spin_until(lambda: False, 0.5)
+matched = spin_until(lambda: all(p.get_subscription_count() > 0 for p in (goals, joints, clouds)), 30.0)
+assert matched, "the planner's subscriptions were not matched"
+spin_until(lambda: False, 0.5)  # a few joint states and clouds reach it first
 goals.publish(target)
 out = {}
 out["started"] = spin_until(lambda: len(state["segments"]) >= 20, 60.0)
@@ -138,6 +142,10 @@ def test_a_rebuild_is_swapped_in_at_a_tick_with_the_state_carried_over(planner):
     with node._lock:
         node._set_enabled(True)  # as ~/enable does
     node._on_joint_states(_joint_state(Q_READY))
+    grasp, goal = GraspSpec(0.05), Goal(np.array([0.5, 0.1, 0.3]), np.diag([1.0, -1.0, -1.0]))
+    with node._lock:
+        ok, reason = node.modes.set_goal(goal, node._now(), grasp)
+    assert ok, reason
     old_planner, old_lr = node.plan_planner, node.plan_planner.config.lr
     assert _set(node, "amp_ls.lr", old_lr * 0.5).successful
     assert _set(node, "closed_loop.rate_hz", 20.0).successful  # supersedes the first build; keeps its lr
@@ -149,6 +157,8 @@ def test_a_rebuild_is_swapped_in_at_a_tick_with_the_state_carried_over(planner):
     assert node.config.closed_loop.rate_hz == 20.0 and node._tick_timer.timer_period_ns == 50_000_000
     assert node.config.status_rate_hz == 4.0 and node.config.amp_ls.lr == old_lr * 0.5
     assert node.modes.amp_ls.enabled  # ~/enable's state, not the `enabled` parameter's (false)
+    assert node.modes.grasp == grasp and node.modes.amp_ls.goal is not None  # the grasp goal, still a grasp
+    np.testing.assert_allclose(node.modes.goal.position, [0.5, 0.1, 0.3])
     assert node.modes.active.fresh_joint_state(node._now()) is not None  # the joint state carried over
 
 
