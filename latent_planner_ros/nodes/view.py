@@ -4,16 +4,18 @@ Subscribes joint_states (the arm), joint_command (the commanded state, transluce
 ``.../points`` (discovered every second; the fused clouds the nodes work from), target_pose, goal_pose,
 ``<planner>/status`` (state, tick time, errors; the arm coloured by its p_collision), ``<planner>/markers`` and
 ``obstacles`` (paths, goal, cylinders), ``<planner>/trajectory`` and joint_trajectory (their TCP paths).
-Inputs are kept newest-only and drawn by a timer at ``--rate`` (15 Hz), so fast topics cost one conversion per
-frame. Controls: the goal gizmo and the goal fields publish goal_pose (frame world; at most 10 Hz while dragging),
-the "Planner enabled" box calls ``<planner>/enable``, "Pause" freezes the view.
+Inputs are kept newest-only and drawn by a timer at ``--rate`` (15 Hz) while a page is open (nothing is drawn
+without one), so fast topics cost one conversion per frame; the process runs at a lower CPU priority (``--nice``).
+Controls: the goal gizmo and the goal fields publish goal_pose (frame world; at most 10 Hz while dragging), the
+"Planner enabled" box calls ``<planner>/enable``, "Pause" freezes the view.
 
-    python -m latent_planner_ros view [--port 8080] [--host 127.0.0.1] [--planner planner] [--rate 15]
+    python -m latent_planner_ros view [--port 8080] [--host 127.0.0.1] [--planner planner] [--rate 15] [--nice 10]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 
@@ -124,6 +126,9 @@ class ViewNode(Node):
 
     # -- drawing (timer) ---------------------------------------------------------------------------
     def _draw(self) -> None:
+        self._send_pending_goal()
+        if not self.server.get_clients():  # nobody is looking: keep the newest inputs, draw nothing
+            return
         newest, self._newest = self._newest, {}
         clouds, self._clouds = self._clouds, {}
         scene = self.scene
@@ -160,7 +165,6 @@ class ViewNode(Node):
         if self._shapes_changed:
             self._shapes_changed = False
             scene.set_shapes(dict(self._shapes))
-        self._send_pending_goal()
         self.frames_drawn += 1
 
     # -- controls (viser threads) ------------------------------------------------------------------
@@ -206,6 +210,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only)")
     p.add_argument("--planner", default="planner", help="the planner node's name (default planner)")
     p.add_argument("--rate", type=float, default=15.0, metavar="HZ", help="drawing rate (default 15 Hz)")
+    p.add_argument(
+        "--nice", type=int, default=10, metavar="N", help="lower the process's CPU priority by N (default 10; 0 = not)"
+    )
     args = p.parse_args(argv)
     if not 1.0 <= args.rate <= 60.0:
         p.error("--rate must be in [1, 60] Hz")
@@ -218,4 +225,6 @@ def main(argv: list[str] | None = None) -> int:
     cut = argv.index("--ros-args") if "--ros-args" in argv else len(argv)
     args = parse_args(argv[:cut])
     sys.argv = ["view", *argv[cut:]]
+    if args.nice:
+        os.nice(args.nice)  # the control loop's nodes come first on a machine with few cores
     return run_node("view", lambda: ViewNode(args.port, args.host, args.planner, args.rate), (OSError,))

@@ -1,9 +1,11 @@
 """Run the demo with the view and a headless Chromium watching it; save a screenshot of the page mid-run.
 
-    .venv/bin/python test/view/watch_demo.py OUT_DIR [--shot-at S] [demo arguments ...]
+    .venv/bin/python test/view/watch_demo.py OUT_DIR [--shot-at S] [--browser-nice N] [demo arguments ...]
 
 Used for docs/view.png and the view's cost on the planner's tick (docs/benchmark.md): the page stays open for
-the whole run, so the view sends every frame to a browser as it would for a user.
+the whole run, so the view sends every frame to a browser as it would for a user. ``--browser-nice 19`` lowers the
+browser's CPU priority (Chromium renders WebGL on the CPU here), standing in for a browser on another machine or
+a GPU.
 """
 
 from __future__ import annotations
@@ -22,10 +24,14 @@ from browser import chromium, dismiss_notifications  # noqa: E402
 
 def main(argv: list[str]) -> int:
     out = Path(argv[0])
-    shot_at = 20.0
+    shot_at, browser_nice = 20.0, 0
     rest = argv[1:]
-    if rest[:1] == ["--shot-at"]:
-        shot_at, rest = float(rest[1]), rest[2:]
+    while rest[:1] in (["--shot-at"], ["--browser-nice"]):
+        if rest[0] == "--shot-at":
+            shot_at = float(rest[1])
+        else:
+            browser_nice = int(rest[1])
+        rest = rest[2:]
     port = 8097
     cmd = [sys.executable, "-m", "latent_planner_ros", "demo", "--out", str(out), "--view", "--view-port", str(port)]
     proc = subprocess.Popen(cmd + rest, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
@@ -46,6 +52,11 @@ def main(argv: list[str]) -> int:
     driver = chromium(1280, 800)
     try:
         driver.get(f"http://localhost:{port}")
+        if browser_nice:  # after the page load: its renderer and GPU processes exist now
+            import psutil
+
+            for child in psutil.Process(driver.service.process.pid).children(recursive=True):
+                child.nice(browser_nice)
         t0 = time.monotonic()
         while proc.poll() is None and time.monotonic() - t0 < shot_at:
             time.sleep(0.5)
