@@ -63,6 +63,7 @@ from latent_planner_ros.nodes.execution_owner import ExecutionOwner
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
+from latent_planner_ros.nodes.qos import CLOUD_QOS
 from latent_planner_ros.nodes.rebuild_worker import RebuildWorker
 from latent_planner_ros.nodes.segment_chain import SegmentChain
 from latent_planner_ros.nodes.service_thread import ServiceThread
@@ -172,7 +173,7 @@ class PlannerNode(Node):
         self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10)
         self.create_subscription(PoseStamped, "grasp_pose", self._on_grasp_goal, 10)
         for cloud_topic in self.config.cloud_topics:
-            self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), 2)
+            self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), CLOUD_QOS)
         self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, 10)
         if self.config.amp_ls.collision_backend == "learned":
             self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2)

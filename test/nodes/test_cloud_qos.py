@@ -1,0 +1,67 @@
+"""A depth camera that publishes its clouds BEST_EFFORT (the sensor-data profile of most camera drivers) reaches
+every node that takes clouds; so does a RELIABLE one (the sim)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from sensor_msgs.msg import PointCloud2
+
+from msg_adapters import xyz_to_cloud
+
+pytestmark = pytest.mark.ros
+
+RELIABLE = QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE)
+
+
+def _planner():
+    from latent_planner_ros.nodes.planner import PlannerNode
+
+    return PlannerNode()
+
+
+def _ompl_planner():
+    from latent_planner_ros.nodes.ompl_planner import OmplPlannerNode
+
+    return OmplPlannerNode()
+
+
+def _scene_encoder():
+    from latent_planner_ros.nodes.scene_encoder import SceneEncoderNode
+
+    return SceneEncoderNode()
+
+
+@pytest.mark.parametrize("factory", [_planner, _ompl_planner, _scene_encoder], ids=lambda f: f.__name__[1:])
+@pytest.mark.parametrize("qos", [qos_profile_sensor_data, RELIABLE], ids=["best_effort", "reliable"])
+def test_clouds_of_a_best_effort_or_reliable_camera_are_taken(factory, qos):
+    rclpy.init(args=["--ros-args", "-p", "amp_ls.collision_backend:=geometric"] if factory is _planner else None)
+    node = factory()
+    camera = rclpy.create_node("camera_driver")
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    executor.add_node(camera)
+    try:
+        pub = camera.create_publisher(PointCloud2, "camera/points", qos)
+        points = np.random.default_rng(0).uniform([0.3, -0.3, 0.0], [0.7, 0.3, 0.4], (500, 3)).astype(np.float32)
+        end = time.monotonic() + 10.0
+        while pub.get_subscription_count() < 1 and time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.05)
+        assert pub.get_subscription_count() == 1  # matched: the QoS of the two ends are compatible
+        end = time.monotonic() + 10.0
+        while not node.fusion.received and time.monotonic() < end:
+            stamp = node.get_clock().now().to_msg()
+            pub.publish(xyz_to_cloud(points, frame_id="world", stamp=stamp))
+            for _ in range(5):
+                executor.spin_once(timeout_sec=0.02)
+        assert node.fusion.received.get("camera/points") == 500
+    finally:
+        executor.shutdown()
+        camera.destroy_node()
+        node.destroy_node()
+        rclpy.shutdown()
