@@ -39,8 +39,10 @@ class BallQuery:
         ct = np.ascontiguousarray(self.cloud.T)  # (3, N): numpy is slow along rows of 3
         lo, hi = ct.min(axis=1), ct.max(axis=1)
         cells = float(np.prod((hi - lo) / self.cell + 3))
-        if cells > MAX_CELLS:  # a cloud spread far (outliers): coarser voxels keep the grid small, answers exact
-            self.cell *= (cells / MAX_CELLS) ** (1 / 3)
+        while cells > MAX_CELLS:  # a cloud spread far (outliers): coarser voxels keep the grid small, answers exact
+            # (repeated: a cloud spread along one axis only shrinks by less than the cube root per pass)
+            self.cell *= max((cells / MAX_CELLS) ** (1 / 3), 1.5)
+            cells = float(np.prod((hi - lo) / self.cell + 3))
         self._lo = lo - self.cell
         ijk = np.floor((ct - self._lo[:, None]) / self.cell).astype(np.intp)
         shape = ijk.max(axis=1) + 2

@@ -64,3 +64,15 @@ def test_far_outliers_keep_the_grid_small_and_the_answers_exact():
     radii = rng.uniform(0.0, 0.05, len(centres))
     radii[-1] = 0.02
     np.testing.assert_array_equal(q.occupied(centres, radii), _brute(cloud, centres, radii))
+
+
+def test_a_cloud_spread_far_along_one_axis_only_keeps_the_grid_small_and_the_answers_exact():
+    """One outlier 1e9 m out along x (the other axes span 1 m): one cube-root coarsening left about 5e7 cells."""
+    rng = np.random.default_rng(3)
+    cloud = np.concatenate([rng.uniform(-0.5, 0.5, (500, 3)), [[1e9, 0.0, 0.0]]])
+    q = BallQuery(cloud)
+    assert q._prefix.size <= 1.25 * MAX_CELLS
+    centres = np.concatenate([cloud[:200] + rng.normal(0, 0.02, (200, 3)), [[1e9, 0.0, 0.01]]])
+    radii = rng.uniform(0.0, 0.05, len(centres))
+    radii[-1] = 0.02
+    np.testing.assert_array_equal(q.occupied(centres, radii), _brute(cloud, centres, radii))
