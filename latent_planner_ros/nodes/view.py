@@ -85,6 +85,8 @@ class ViewNode(Node):
         self._goal_sent_at = 0.0
         self._placed = False
         self.frames_drawn = 0
+        self.clouds_drawn = 0
+        self._rates_at, self._rates_base = time.monotonic(), (0, 0)
         self.create_subscription(JointState, "joint_states", lambda m: self._keep("joints", m), 10)
         self.create_subscription(JointState, "joint_command", lambda m: self._keep("command", m), 10)
         self.create_subscription(PoseStamped, "target_pose", lambda m: self._keep("target", m), 10)
@@ -147,6 +149,7 @@ class ViewNode(Node):
         for topic, msg in clouds.items():
             try:
                 scene.set_cloud(topic.lstrip("/"), cloud_to_xyz(msg))
+                self.clouds_drawn += 1
             except AdapterError as err:
                 self.get_logger().warning(f"{topic} not shown: {err}", throttle_duration_sec=5.0)
         for key in ("target", "goal"):
@@ -166,6 +169,11 @@ class ViewNode(Node):
             self._shapes_changed = False
             scene.set_shapes(dict(self._shapes))
         self.frames_drawn += 1
+        now = time.monotonic()
+        if now - self._rates_at >= 2.0:
+            frames, clouds = self.frames_drawn - self._rates_base[0], self.clouds_drawn - self._rates_base[1]
+            span, self._rates_at, self._rates_base = now - self._rates_at, now, (self.frames_drawn, self.clouds_drawn)
+            scene.set_info(f"{frames / span:.1f} frames/s, {clouds / span:.1f} clouds/s sent to the page")
 
     # -- controls (viser threads) ------------------------------------------------------------------
     def _goal_moved(self, position: np.ndarray, wxyz: np.ndarray) -> None:

@@ -24,6 +24,8 @@ from latent_planner_ros.view.robot_meshes import robot_meshes
 ROBOT_RGB = (200, 200, 210)
 COLLISION_RGB = (230, 40, 30)
 COMMAND_RGB = (80, 160, 255)
+STILL_RAD = 1e-4
+"""[rad] joint change below which the arm's meshes are not sent again"""
 MAX_CLOUD_POINTS = 60_000
 """clouds above this are subsampled (every k-th point) before they are sent to the page"""
 
@@ -95,6 +97,7 @@ class SuiteScene:
         self._gizmo = scene.add_transform_controls("/goal", scale=0.18, position=(0.45, 0.0, 0.4), visible=True)
         self._gizmo.on_update(lambda _: self._gizmo_moved())
         self.paused = False
+        self._last_q: dict[int, np.ndarray] = {}
 
         with gui.add_folder("Planner"):
             self.status_md = gui.add_markdown("*no planner status yet*")
@@ -137,6 +140,11 @@ class SuiteScene:
 
     # -- inputs ------------------------------------------------------------------------------------
     def _pose_meshes(self, handles: dict, q: np.ndarray) -> None:
+        key = id(handles)
+        last = self._last_q.get(key)
+        if last is not None and np.max(np.abs(last - q)) < STILL_RAD:
+            return  # the arm has not moved: nothing to send
+        self._last_q[key] = np.array(q, dtype=float)
         with self.server.atomic():
             for name, (wxyz, xyz) in self.meshes.poses(q).items():
                 handle = handles[name]

@@ -1,4 +1,5 @@
-"""A headless Chromium (Debian's chromium and chromium-driver) driven by Selenium, for the view's tests.
+"""A headless Chromium (Debian's chromium and chromium-driver) driven by Selenium, and a fake suite publishing what
+the view reads, for the view's tests and measurements.
 
 Also a script: ``.venv/bin/python test/view/browser.py URL OUT.png [WAIT_S]`` saves a screenshot of a page
 (docs/view.png is made this way from a running ``launch --view``).
@@ -6,12 +7,21 @@ Also a script: ``.venv/bin/python test/view/browser.py URL OUT.png [WAIT_S]`` sa
 
 from __future__ import annotations
 
+import subprocess
 import sys
+import threading
 import time
+import urllib.request
 from pathlib import Path
+
+import numpy as np
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMEDRIVER = Path("/usr/bin/chromedriver")
+Q = np.array([0.3, -0.4, 0.1, -2.0, 0.05, 1.7, 0.6])
+"""the fake suite's joint state [rad]"""
+N_POINTS = 30_000
+"""points of the fake suite's cloud"""
 
 
 def chromium(width: int = 1280, height: int = 800):
@@ -56,6 +66,109 @@ def dismiss_notifications(driver) -> None:
         "document.querySelectorAll('.mantine-Notification-closeButton, .mantine-Notifications-root button')"
         ".forEach(b => b.click());"
     )
+
+
+class FakeSuite:
+    """joint_states (50 Hz), camera/points (10 Hz, N_POINTS), planner/status (disabled, p_collision 0.7), a
+    planner/enable service and a goal_pose subscription, spun in this process."""
+
+    def __init__(self, domain_id: int, cloud_hz: float = 10.0):
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
+        from geometry_msgs.msg import PoseStamped
+        from rclpy.context import Context
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.node import Node
+        from rclpy.signals import SignalHandlerOptions
+        from sensor_msgs.msg import JointState, PointCloud2
+        from std_srvs.srv import SetBool
+
+        from msg_adapters import q_to_joint_state, status_array, xyz_to_cloud
+
+        self.context = Context()
+        rclpy.init(context=self.context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
+        node = self.node = Node("fake_suite", context=self.context, start_parameter_services=False)
+        rng = np.random.default_rng(0)
+        points = rng.uniform([0.3, -0.4, 0.0], [0.9, 0.4, 0.3], size=(N_POINTS, 3)).astype(np.float32)
+        self._points, self._published = points, 0
+        self.goals: list = []
+        self.enable_requests: list[bool] = []
+        pub_joints = node.create_publisher(JointState, "joint_states", 10)
+        pub_cloud = node.create_publisher(PointCloud2, "camera/points", 2)
+        pub_status = node.create_publisher(DiagnosticArray, "planner/status", 10)
+        node.create_subscription(PoseStamped, "goal_pose", self.goals.append, 10)
+
+        def enable(request, response):
+            self.enable_requests.append(bool(request.data))
+            response.success = True
+            return response
+
+        node.create_service(SetBool, "planner/enable", enable)
+        self.q = Q.copy()
+        node.create_timer(
+            0.02, lambda: pub_joints.publish(q_to_joint_state(self.q, stamp=node.get_clock().now().to_msg()))
+        )
+        node.create_timer(
+            1.0 / cloud_hz,
+            lambda: pub_cloud.publish(xyz_to_cloud(self._next_cloud(), "world", node.get_clock().now().to_msg())),
+        )
+        status = {"state": "disabled", "p_collision": 0.7, "tick_ms": 3.2, "last_error": ""}
+        node.create_timer(0.2, lambda: pub_status.publish(status_array("planner", 0, "disabled", status)))
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(node)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _next_cloud(self) -> np.ndarray:
+        """The cloud shifted by 0.1 mm more along x each time (every cloud differs, as a camera's do)."""
+        self._published += 1
+        shifted = self._points.copy()
+        shifted[:, 0] += 1e-4 * (self._published % 100)
+        return shifted
+
+    def _spin(self) -> None:
+        while not self._stop.is_set():
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def close(self) -> None:
+        import rclpy
+
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        self.executor.shutdown(timeout_sec=1.0)
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+
+def free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_http(url: str, proc: subprocess.Popen, timeout_s: float = 60.0) -> None:
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        assert proc.poll() is None, proc.communicate()[0][-3000:]
+        try:
+            urllib.request.urlopen(url, timeout=1.0).read(100)
+            return
+        except OSError:
+            time.sleep(0.3)
+    raise TimeoutError(f"{url} did not answer in {timeout_s:g} s")
+
+
+def wait_for(predicate, timeout_s: float, what: str):
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(0.25)
+    raise AssertionError(f"timed out after {timeout_s:g} s waiting for {what}")
 
 
 def main(argv: list[str]) -> int:
