@@ -16,6 +16,7 @@ from msg_adapters.plan_request import plan_result_status, plan_tolerance
 from msg_adapters.point_cloud import cloud_to_fields, cloud_to_xyz, feature_names, xyz_to_cloud
 from msg_adapters.pose import PoseTarget, pose_stamped_to_target, target_to_pose_stamped
 from msg_adapters.scene_embedding import cloud_to_embedding, embedding_to_cloud
+from msg_adapters.target_box import box_to_marker, marker_to_box
 from msg_adapters.trajectory import (
     ee_path_to_path,
     joint_path_to_trajectory,
@@ -29,6 +30,7 @@ __all__ = [
     "CylinderUpdate",
     "PoseTarget",
     "apply_marker_array",
+    "box_to_marker",
     "cloud_to_embedding",
     "cloud_to_fields",
     "cloud_to_xyz",
@@ -39,6 +41,7 @@ __all__ = [
     "feature_names",
     "joint_path_to_trajectory",
     "joint_state_to_q",
+    "marker_to_box",
     "path_to_arrays",
     "plan_result_status",
     "plan_tolerance",

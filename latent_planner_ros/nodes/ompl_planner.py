@@ -37,10 +37,11 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Header
 from trajectory_msgs.msg import JointTrajectory
-from visualization_msgs.msg import MarkerArray
+from visualization_msgs.msg import Marker, MarkerArray
 
 from latent_planner_ros.nodes.execution_owner import QOS as OWNER_QOS
 from latent_planner_ros.nodes.execution_owner import ExecutionOwner
+from latent_planner_ros.nodes.grasp_target_input import GraspTargetInput
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.ompl_planner_config import RANGES, READ_ONLY, OmplPlannerNodeConfig
@@ -48,7 +49,7 @@ from latent_planner_ros.nodes.qos import CLOUD_QOS
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from latent_planner_ros.perception.frames import WORLD, path_to_world
 from latent_planner_ros.planning.goal import Goal
-from latent_planner_ros.planning.grasp import grasp_reason, plan_grasp
+from latent_planner_ros.planning.grasp import grasp_reason, plan_grasp_spec
 from latent_planner_ros.planning.ompl_baseline import OmplPlanner
 from latent_planner_ros.planning.time_parameterisation import jerk_limited_trajectory
 from msg_adapters import (
@@ -97,6 +98,8 @@ class OmplPlannerNode(Node):
             self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), CLOUD_QOS)
         self.create_service(GetPlan, "~/plan", self._on_plan)
         self.create_service(GetPlan, "~/plan_grasp", partial(self._on_plan, grasp=True))
+        self.grasp_target = GraspTargetInput()
+        self.create_subscription(Marker, "grasp_target", self._on_grasp_target, 10)
         pub_owner = self.create_publisher(Header, "execution_owner", OWNER_QOS)
         self.owner = ExecutionOwner(self.get_fully_qualified_name(), pub_owner.publish, self._on_preempted)
         self.create_subscription(Header, "execution_owner", self.owner.on_claim, OWNER_QOS)
@@ -162,6 +165,13 @@ class OmplPlannerNode(Node):
             return None
         return self._q.copy()
 
+    def _on_grasp_target(self, msg: Marker) -> None:
+        """A caller's box around the target of the grasp goals that follow (nodes/grasp_target_input.py)."""
+        try:
+            self.grasp_target.on_marker(msg, self.frames)
+        except (AdapterError, ValueError) as err:
+            self._error(f"grasp_target refused: {err}")
+
     # -- planning -----------------------------------------------------------------------------------
     def _on_plan(self, request: GetPlan.Request, response: GetPlan.Response, grasp: bool = False) -> GetPlan.Response:
         """Plan once (grasp: to a grasp goal, ~/plan_grasp); every request, refused or planned, is answered on
@@ -203,9 +213,8 @@ class OmplPlannerNode(Node):
         self._execution_end = None  # a valid new request ends the watch over the previous execution
         self._state = "planning"
         if grasp:
-            radius = self.config.grasp_target_radius_m or None
-            approach = self.config.grasp_approach_m
-            result = plan_grasp(self.planner, q, goal, fused.points, None, approach, target_radius=radius)
+            spec = self.grasp_target.spec(self.config.grasp_approach_m, self.config.grasp_target_radius_m)
+            result = plan_grasp_spec(self.planner, q, goal, fused.points, spec)
         else:
             result = self.planner.plan(q, goal, fused.points if fused.sources else None)
         reason = grasp_reason(result) if grasp else result.reason
@@ -266,6 +275,7 @@ class OmplPlannerNode(Node):
             "execution_owner": self.owner.owner,
             "planner": self.planner.name,
             "last_error": self._last_error,
+            "grasp_target": self.grasp_target.describe(self.config.grasp_target_radius_m),
             **self._last,
         }
         stamp = self.get_clock().now().to_msg()

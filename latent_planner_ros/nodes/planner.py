@@ -54,12 +54,13 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Header
 from std_srvs.srv import SetBool
 from trajectory_msgs.msg import JointTrajectory
-from visualization_msgs.msg import MarkerArray
+from visualization_msgs.msg import Marker, MarkerArray
 
 from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.vae_io import load_vae
 from latent_planner_ros.nodes.execution_owner import QOS as OWNER_QOS
 from latent_planner_ros.nodes.execution_owner import ExecutionOwner
+from latent_planner_ros.nodes.grasp_target_input import GraspTargetInput
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
@@ -75,7 +76,7 @@ from latent_planner_ros.planning.backends import make_backend
 from latent_planner_ros.planning.closed_loop import ClosedLoopController, TickOutcome
 from latent_planner_ros.planning.cylinder_backend import CylinderBackend
 from latent_planner_ros.planning.goal import Goal
-from latent_planner_ros.planning.grasp import GraspSpec, grasp_reason, plan_grasp
+from latent_planner_ros.planning.grasp import grasp_reason, plan_grasp_spec
 from latent_planner_ros.planning.lspp import make_lspp
 from latent_planner_ros.planning.plan_runner import PlanRequest, ThreadedPlanRunner, planning_function
 from latent_planner_ros.planning.planner_modes import LSPP, PlannerModes
@@ -172,6 +173,8 @@ class PlannerNode(Node):
         self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
         self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10)
         self.create_subscription(PoseStamped, "grasp_pose", self._on_grasp_goal, 10)
+        self.grasp_target = GraspTargetInput()
+        self.create_subscription(Marker, "grasp_target", self._on_grasp_target, 10)
         for cloud_topic in self.config.cloud_topics:
             self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), CLOUD_QOS)
         self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, 10)
@@ -427,6 +430,14 @@ class PlannerNode(Node):
     def _on_grasp_goal(self, msg: PoseStamped) -> None:
         self._take_goal(msg, grasp=True)
 
+    @_locked
+    def _on_grasp_target(self, msg: Marker) -> None:
+        """A caller's box around the target of the grasp goals that follow (nodes/grasp_target_input.py)."""
+        try:
+            self.grasp_target.on_marker(msg, self.frames)
+        except (AdapterError, ValueError) as err:
+            self._error(f"grasp_target refused: {err}")
+
     def _take_goal(self, msg: PoseStamped, grasp: bool) -> None:
         """goal_pose, or (grasp) grasp_pose: a grasp goal with the grasp_approach_m and grasp_target_radius_m
         parameters (planning/closed_loop.py: its target's points set aside, reached along a background plan)."""
@@ -434,7 +445,7 @@ class PlannerNode(Node):
         try:
             goal = self._goal_from(msg)
             cfg = self.config
-            spec = GraspSpec(cfg.grasp_approach_m, cfg.grasp_target_radius_m or None) if grasp else None
+            spec = self.grasp_target.spec(cfg.grasp_approach_m, cfg.grasp_target_radius_m) if grasp else None
         except (AdapterError, ValueError) as err:
             self._error(f"{topic} refused: {err}")
             return
@@ -525,7 +536,12 @@ class PlannerNode(Node):
             scene = controller.scene if planner.config.use_collision else None
             if planner.config.use_collision and scene is None:
                 return "no scene received yet", None
-            return "", (PlanRequest(q, goal, scene, controller.cloud, 0), planner, lspp)
+            cloud = controller.raw_cloud  # the whole cloud: a grasp goal of the closed loop sets nothing aside here
+            if scene is not None and not lspp and getattr(planner.backend, "name", "") == "geometric":
+                scene = cloud
+            cfg = self.config
+            spec = self.grasp_target.spec(cfg.grasp_approach_m, cfg.grasp_target_radius_m) if grasp else None
+            return "", (PlanRequest(q, goal, scene, cloud, 0, spec), planner, lspp)
 
     def _plan(
         self, request: GetPlan.Request, response: GetPlan.Response, grasp: bool = False
@@ -542,9 +558,7 @@ class PlannerNode(Node):
         if grasp:
             with self._plan_lock:
                 q, cloud = plan_request.q, plan_request.cloud
-                cfg = self.config
-                radius = cfg.grasp_target_radius_m or None
-                result = plan_grasp(planner, q, goal, cloud, None, cfg.grasp_approach_m, target_radius=radius)
+                result = plan_grasp_spec(planner, q, goal, cloud, plan_request.grasp)
         elif lspp:
             with self._lock:
                 result = planner.plan(plan_request.q, goal, plan_request.scene)
@@ -591,6 +605,7 @@ class PlannerNode(Node):
             "cloud_sources": self._cloud_sources,
             "execution_owner": self.owner.owner,
             "grasp": self.modes.amp_ls.grasp_note if self.modes.grasp is not None else "",
+            "grasp_target": self.grasp_target.describe(self.config.grasp_target_radius_m),
             **o.values,
         }
         stamp = self.get_clock().now().to_msg()
