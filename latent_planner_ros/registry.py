@@ -30,6 +30,7 @@ BENCH = {
     "reach": "latent_planner_ros.bench.reach:main",
     "robot": "latent_planner_ros.bench.robot:main",
     "sim": "sim_bridge.bench:main",
+    "soak": "latent_planner_ros.bench.soak:main",
     "table": "latent_planner_ros.bench.table:main",
     "vae": "latent_planner_ros.bench.vae:main",
 }
