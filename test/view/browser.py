@@ -83,7 +83,7 @@ class FakeSuite:
         from sensor_msgs.msg import JointState, PointCloud2
         from std_srvs.srv import SetBool
 
-        from msg_adapters import q_to_joint_state, status_array, xyz_to_cloud
+        from msg_adapters import q_to_joint_state, status_array
 
         self.context = Context()
         rclpy.init(context=self.context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
@@ -91,6 +91,7 @@ class FakeSuite:
         rng = np.random.default_rng(0)
         points = rng.uniform([0.3, -0.4, 0.0], [0.9, 0.4, 0.3], size=(N_POINTS, 3)).astype(np.float32)
         self._points, self._published = points, 0
+        self.clouds_on = True  # off: no more clouds (the page has less to draw)
         self.goals: list = []
         self.enable_requests: list[bool] = []
         pub_joints = node.create_publisher(JointState, "joint_states", 10)
@@ -110,7 +111,7 @@ class FakeSuite:
         )
         node.create_timer(
             1.0 / cloud_hz,
-            lambda: pub_cloud.publish(xyz_to_cloud(self._next_cloud(), "world", node.get_clock().now().to_msg())),
+            lambda: self._publish_cloud(pub_cloud, node.get_clock().now().to_msg()),
         )
         status = {"state": "disabled", "p_collision": 0.7, "tick_ms": 3.2, "last_error": ""}
         node.create_timer(0.2, lambda: pub_status.publish(status_array("planner", 0, "disabled", status)))
@@ -119,6 +120,12 @@ class FakeSuite:
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()
+
+    def _publish_cloud(self, pub, stamp) -> None:
+        from msg_adapters import xyz_to_cloud
+
+        if self.clouds_on:
+            pub.publish(xyz_to_cloud(self._next_cloud(), "world", stamp))
 
     def _next_cloud(self) -> np.ndarray:
         """The cloud shifted by 0.1 mm more along x each time (every cloud differs, as a camera's do)."""

@@ -39,18 +39,23 @@ pytestmark = pytest.mark.skipif(
 )
 
 
+SET_INPUT_JS = """
+const [input, text] = arguments;
+const setter = Object.getOwnPropertyDescriptor(HTMLInputElement.prototype, "value").set;
+input.focus();
+setter.call(input, text);
+input.dispatchEvent(new Event("input", { bubbles: true }));
+input.blur();
+"""
+"""Type into a (React-controlled) input as the keyboard does: the new text, then the input event. Selenium's
+send_keys waits on every key stroke, which a page drawing a few frames per second (software WebGL) makes slow."""
+
+
 def _set_field(driver, label: str, value: float) -> None:
     from selenium.webdriver.common.by import By
-    from selenium.webdriver.common.keys import Keys
 
-    field = driver.find_element(
-        By.ID, driver.find_element(By.XPATH, f"//label[normalize-space()='{label}']").get_attribute("for")
-    )
-    field.send_keys(Keys.CONTROL, "a")
-    field.send_keys(f"{abs(value)}")
-    if value < 0:  # a lone "-" is not a number the field takes: the sign goes in front of the digits
-        field.send_keys(Keys.HOME, "-")
-    field.send_keys(Keys.TAB)
+    field_id = driver.find_element(By.XPATH, f"//label[normalize-space()='{label}']").get_attribute("for")
+    driver.execute_script(SET_INPUT_JS, driver.find_element(By.ID, field_id), f"{value}")
 
 
 @pytest.fixture(scope="module")
@@ -114,6 +119,7 @@ def test_a_goal_typed_into_the_page_arrives_on_goal_pose(view_page):
     from selenium.webdriver.common.by import By
 
     driver, suite, _ = view_page
+    suite.clouds_on = False  # the cloud was checked: less for the page to draw from here on
     wait_for(lambda: driver.find_elements(By.XPATH, "//label[normalize-space()='goal x']"), 30.0, "the goal fields")
     for label, value in (("goal x", 0.52), ("goal y", -0.21), ("goal z", 0.33)):
         _set_field(driver, label, value)
