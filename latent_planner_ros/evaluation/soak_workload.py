@@ -252,25 +252,61 @@ def still_objects(scenario) -> list:
     return [o for o in scenario.objects if o.motion is None]
 
 
+HAND_HALF_OPENING_M = 0.04
+"""[m] half the Panda hand's finger opening: a grasp target must be narrower, with GRASP_SPARE_M to spare a side."""
+GRASP_SPARE_M = 0.01
+
+
+def grasp_candidates(scenario) -> list[tuple]:
+    """(object, yaw [rad]) of every still object the open hand can take from above: an upright box, cylinder or
+    capsule, or a sphere, whose narrow horizontal half width leaves GRASP_SPARE_M to each finger; yaw turns the hand
+    so the fingers close across that narrow side."""
+    from latent_planner_ros.robot.rotations import quat_to_matrix
+
+    out = []
+    limit = HAND_HALF_OPENING_M - GRASP_SPARE_M
+    for obj in still_objects(scenario):
+        r = quat_to_matrix(np.asarray(obj.quaternion_xyzw, dtype=float)[None])[0]
+        if obj.type == "sphere" and obj.radius <= limit:
+            out.append((obj, 0.0))
+        elif obj.type in ("cylinder", "capsule") and abs(r[2, 2]) > 0.99 and obj.radius <= limit:
+            out.append((obj, 0.0))
+        elif obj.type == "box":
+            vertical = int(np.argmax(np.abs(r[2])))
+            if abs(r[2, vertical]) < 0.99:
+                continue
+            sides = [i for i in range(3) if i != vertical]
+            narrow = min(sides, key=lambda i: obj.half_extents[i])
+            if obj.half_extents[narrow] <= limit:
+                axis = r[:, narrow]  # the fingers close along the hand's y axis: (sin yaw, -cos yaw, 0)
+                yaw = float(np.arctan2(axis[0], -axis[1]))
+                out.append((obj, float((yaw + np.pi / 2) % np.pi - np.pi / 2)))  # the fingers are symmetric
+    return out
+
+
 def resolve_pose(event: Event, scenario) -> tuple[np.ndarray, np.ndarray] | None:
     """(position (3,) [m], quaternion (4,) xyzw) of a goal, grasp goal or plan request in `scenario` (a
-    sim_bridge Scenario), or None for a conveyor_target goal or an object goal in a scene without still objects.
+    sim_bridge Scenario), or None for a conveyor_target goal or an object goal in a scene without a suitable object.
 
-    inside_obstacle: the object's centre, or (surface) 5 mm under its top; grasp_goal: the TCP at the object's
-    centre height, 2 cm under its top at most, hand pointing down."""
+    inside_obstacle: the centre of a still object, or (surface) 5 mm under its top; grasp_goal: one of
+    grasp_candidates, the TCP 2.5 cm under its top (at least 2.5 cm above the table), the hand pointing down with
+    the fingers across the narrow side."""
     p = event.params
     if "position" in p:
         return np.asarray(p["position"], dtype=float), down_quaternion(p.get("yaw", 0.0))
     if "object_u" not in p:
         return None
+    if event.kind == "grasp_goal":
+        candidates = grasp_candidates(scenario)
+        if not candidates:
+            return None
+        obj, yaw = candidates[min(int(p["object_u"] * len(candidates)), len(candidates) - 1)]
+        z = max(object_top_z(obj) - 0.025, 0.025)
+        return np.array([obj.position[0], obj.position[1], z]), down_quaternion(yaw)
     objects = still_objects(scenario)
     if not objects:
         return None
     obj = objects[min(int(p["object_u"] * len(objects)), len(objects) - 1)]
     centre = np.asarray(obj.position, dtype=float)
-    top = object_top_z(obj)
-    if event.kind == "grasp_goal":
-        z = max(centre[2], top - 0.02)
-        return np.array([centre[0], centre[1], z]), down_quaternion(0.0)
-    z = top - 0.005 if p.get("surface") else centre[2]
+    z = object_top_z(obj) - 0.005 if p.get("surface") else centre[2]
     return np.array([centre[0], centre[1], z]), down_quaternion(0.0)

@@ -24,11 +24,14 @@ from latent_planner_ros.evaluation.soak_workload import (
     EVENT_KINDS,
     GOAL_KINDS,
     GOOD_PARAMS,
+    GRASP_SPARE_M,
+    HAND_HALF_OPENING_M,
     SHOULDER,
     Event,
     WorkloadConfig,
     counts,
     generate,
+    grasp_candidates,
     object_top_z,
     resolve_pose,
     still_objects,
@@ -105,10 +108,17 @@ def test_object_goals_resolve_against_the_scene():
     assert top[0][2] == pytest.approx(object_top_z(objects[0]) - 0.005)
     box = next(o for o in objects if o.type == "box")
     assert object_top_z(box) > box.position[2]
-    grasp = resolve_pose(Event(1.0, "grasp_goal", {"object_u": 0.999}), scene)
-    assert np.allclose(grasp[0][:2], objects[-1].position[:2])
+    scene = load_scenario("tabletop", seed=9)  # a box lying turned on the table, narrow along its y axis
+    (box, _), *_ = [(o, y) for o, y in grasp_candidates(scene) if o.type == "box"]
+    grasp = resolve_pose(Event(1.0, "grasp_goal", {"object_u": 0.0}), scene)
+    assert np.allclose(grasp[0][:2], box.position[:2]) and grasp[0][2] == pytest.approx(object_top_z(box) - 0.025)
     r = quat_to_matrix(grasp[1][None])[0]
     assert np.allclose(r[:, 2], [0.0, 0.0, -1.0])  # the hand points down
+    narrow = quat_to_matrix(np.asarray(box.quaternion_xyzw)[None])[0][:, 1]
+    assert abs(r[:, 1] @ narrow) == pytest.approx(1.0)  # the fingers close across the narrow side
+    assert box.half_extents[1] <= HAND_HALF_OPENING_M - GRASP_SPARE_M
+    assert all(o.radius <= 0.03 for o, _ in grasp_candidates(load_scenario("tabletop", seed=0)) if o.type != "box")
+    assert resolve_pose(Event(1.0, "grasp_goal", {"object_u": 0.5}), load_scenario("tabletop", seed=1)) is None
     assert resolve_pose(Event(1.0, "goal", {"goal": "conveyor_target"}), scene) is None
     assert [o.name for o in still_objects(load_scenario("conveyor", seed=1))] == ["belt"]  # target, obstacle move
 
