@@ -18,14 +18,17 @@ Writes ``DIR/soak.json`` (``minutes``, ``invariant_violations``, ``contacts``, `
 ``goals_without_outcome`` (goals neither reached, refused nor given up before the next one), and the rest of
 evaluation/soak_report.py's summary), ``DIR/soak.md``, plots ``DIR/soak_{resources,ticks,goals}.png``, the
 workload ``DIR/soak_events.json`` and the nodes' output ``DIR/soak_nodes.log``. Minutes are simulated time.
-Exit code 0 when the run finished without violations, contacts or crashes, 1 otherwise.
+Exit code 0 when the run finished without violations, contacts or crashes, 1 otherwise. SIGINT (Ctrl-C) or
+SIGTERM ends the run early and writes the report of the minutes run.
 """
 
 from __future__ import annotations
 
 import json
 import random
+import signal
 import sys
+import threading
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -127,8 +130,9 @@ def _sample_resources(supervisor, t: float) -> list[tuple]:
     return rows
 
 
-def run_soak(args, out: Path) -> tuple[SoakLog, dict]:
-    """Start the suite, run the workload for args.minutes of simulated time, stop; (the log, run info)."""
+def run_soak(args, out: Path, stop: threading.Event | None = None) -> tuple[SoakLog, dict]:
+    """Start the suite, run the workload for args.minutes of simulated time (or until `stop` is set), stop the
+    suite; (the log, run info)."""
     from latent_planner_ros.evaluation.soak_workload import counts, generate
     from latent_planner_ros.node_suite import suite_env, suite_specs
     from latent_planner_ros.nodes.graph_probe import GraphProbe
@@ -153,7 +157,8 @@ def run_soak(args, out: Path) -> tuple[SoakLog, dict]:
         session = SoakSession(args.domain_id)  # first, so it hears every node's /rosout from the start
         supervisor.start()
         with GraphProbe(domain_id=args.domain_id) as probe:
-            supervisor.wait_ready(probe.ready_nodes, 180.0)
+            if not supervisor.wait_ready(probe.ready_nodes, 180.0, stop):
+                raise RuntimeError("stopped during start-up")
         session.wait_clock()
         info["startup_s"] = round(time.monotonic() - t_start, 1)
         print(f"[bench soak] {', '.join(plan.nodes)} up after {info['startup_s']:.0f} s", file=sys.stderr)
@@ -165,7 +170,7 @@ def run_soak(args, out: Path) -> tuple[SoakLog, dict]:
         enabled = False
         while True:
             now = session.now()
-            if now >= total:
+            if now >= total or (stop is not None and stop.is_set()):
                 break
             wall = time.monotonic()
             crashed = supervisor.exited()
@@ -253,8 +258,18 @@ def main(argv: list[str]) -> int:
     from latent_planner_ros.supervisor import StartupError
 
     args.out.mkdir(parents=True, exist_ok=True)
+    stop = threading.Event()
+
+    def request_stop(signum, frame) -> None:
+        print(
+            f"[bench soak] {signal.Signals(signum).name}: stopping, the report covers the minutes run", file=sys.stderr
+        )
+        stop.set()
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, request_stop)
     try:
-        log, info = run_soak(args, args.out)
+        log, info = run_soak(args, args.out, stop)
     except (SuiteError, StartupError, RuntimeError, TimeoutError) as err:
         print(f"[bench soak] error: {err} (node output: {args.out / 'soak_nodes.log'})", file=sys.stderr)
         return 1
