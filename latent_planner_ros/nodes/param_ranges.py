@@ -26,6 +26,8 @@ CLOSED_LOOP = {
     "plan_wait_s": ">= 0",
     "replan_after_s": "> 0",
     "follow_goal_tol_m": "> 0",
+    "servo_radius_m": ">= 0",
+    "servo_max_rad": ">= 0",
 }
 
 AMP_LS = {

@@ -18,6 +18,7 @@ from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.evasion import Evader
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.grasp import GraspSpec
+from latent_planner_ros.planning.ik import IkConfig, solve_ik
 from latent_planner_ros.planning.plan_follow import STILL_GOAL_MPS, PlanFollower
 from latent_planner_ros.robot.limits import JOINT_NAMES, Q_MAX, Q_MIN, V_MAX
 
@@ -27,6 +28,9 @@ GOAL_VELOCITY_WINDOW_S = 0.3
 """[s] a moving goal's velocity is estimated from the goals received over this long (see goal_lead_s)"""
 GOAL_JUMP_M = 0.05
 """[m] a goal farther than this from the previous one is a new goal (watchdog and velocity estimate restart)"""
+
+SERVO_IK = IkConfig(max_iters=15, stall_iters=5, max_step_rad=0.2)
+"""the IK servo's damped-least-squares iterations from the measured state (ClosedLoopConfig.servo_radius_m)"""
 
 MEASURED_LIMIT_TOL_RAD = 0.05
 """[rad] a measured joint may lie this far outside its limits (compliance, calibration); farther is a faulty
@@ -81,6 +85,14 @@ class ClosedLoopConfig:
     """[s] without a path to follow, local steps without progress for this long ask for a new background plan"""
     follow_goal_tol_m: float = 0.02
     """[m] a path is followed only while the goal is within this of the goal it was planned for"""
+    servo_radius_m: float = 0.0
+    """[m] with the arm's TCP within this of a moving goal (led by goal_lead_s), a tick servos by IK instead of a
+    latent step: a few damped-least-squares iterations from the measured state to the led goal, commanded when the
+    straight segment to it passes the hard check and changes no joint by more than servo_max_rad (else the latent
+    step as usual); the latent optimisation trails a fast goal by several ticks, IK does not. 0 = off (beyond the
+    seed)"""
+    servo_max_rad: float = 0.5
+    """[rad] the largest joint change an IK servo target may ask for (a larger one is a different IK branch)"""
 
     def __post_init__(self) -> None:
         positive = ("rate_hz", "stale_joint_states_s", "stale_scene_s", "no_progress_s", "progress_m", "reach_m")
@@ -98,7 +110,8 @@ class ClosedLoopConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {v!r}")
-        names = ("goal_clearance_m", "goal_lead_s", "goal_lead_max_m", "evade_margin_m", "evade_approach_mps")
+        names = ("goal_clearance_m", "goal_lead_s", "goal_lead_max_m", "evade_margin_m", "evade_approach_mps",
+                 "servo_radius_m", "servo_max_rad")  # fmt: skip
         for name in (*names, "plan_wait_s"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v >= 0):
@@ -336,6 +349,10 @@ class ClosedLoopController:
                 return outcome
         if self.grasp is not None:
             return self._grasp_hold(now, hold)
+        if cfg.servo_radius_m > 0 and float(np.linalg.norm(self.goal_velocity())) > STILL_GOAL_MPS:
+            outcome = self._servo(now)
+            if outcome is not None:
+                return outcome
         t0 = time.perf_counter()
         out = self.planner.step(
             self._q,
@@ -422,6 +439,41 @@ class ClosedLoopController:
             return evasion
         reason = "reached" if reached else f"following the background plan ({f.waypoint})"
         return TickOutcome(target, "reached" if reached else "tracking", reason, OK, values)
+
+    def _servo(self, now: float) -> TickOutcome | None:
+        """The tick's command by IK towards the led goal when the TCP is within servo_radius_m of it (see
+        ClosedLoopConfig.servo_radius_m), or None (a latent step instead)."""
+        cfg, goal, q = self.config, self.chased_goal(), self._q
+        t0 = time.perf_counter()
+        _, pos_err, _ = self.planner.arm_at_goal(q, goal)
+        if pos_err > cfg.servo_radius_m:
+            return None
+        sol = solve_ik(self.planner.panda, goal, q, SERVO_IK)
+        delta = sol.q - q
+        if float(np.abs(delta).max()) > cfg.servo_max_rad or sol.pos_err >= pos_err:
+            return None
+        limit = self.planner.config.speed_scale * V_MAX / cfg.rate_hz
+        scale = min(1.0, float(np.min(limit / np.maximum(np.abs(delta), 1e-12))))
+        command = np.clip(q + scale * delta, Q_MIN, Q_MAX)
+        if self.planner.config.use_collision and self._scene is not self._checked_scene:
+            self.planner.backend.set_scene(self._scene)
+            self._checked_scene = self._scene
+        if not self.planner.segment_free(q, command):
+            return None
+        self.planner.reset()  # the next latent step re-encodes wherever the servo left the arm
+        reached, arm_err, ori_err = self.planner.arm_at_goal(q, self.goal)
+        values = {
+            "pos_err_m": arm_err,
+            "arm_pos_err_m": arm_err,
+            "ori_err_deg": float(np.degrees(ori_err)),
+            "tick_ms": (time.perf_counter() - t0) * 1000.0,
+            "command_source": "servo",
+        }
+        self._best_err, self._best_time, self._best_goal = min(arm_err, self._best_err), now, self.goal.position.copy()
+        evasion = self._evasion(now, values, command=command)
+        if evasion is not None:
+            return evasion
+        return TickOutcome(command, "reached" if reached else "tracking", "servoing by IK", OK, values)
 
     def _grasp_hold(self, now: float, hold: np.ndarray) -> TickOutcome:
         """The tick at a grasp goal without a path to follow: hold (a grasp is approached along background plans
