@@ -9,10 +9,14 @@ has made obsolete is never handed out.
 
 from __future__ import annotations
 
+import os
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
+
+NICE = 10
+"""Niceness of the worker thread (Linux threads have their own): the loop keeps the CPU when it is scarce."""
 
 
 @dataclass(frozen=True)
@@ -73,6 +77,10 @@ class RebuildWorker:
             self._cond.notify()
 
     def _run(self) -> None:
+        try:  # Linux: a nicer thread, so a busy CPU runs the control loop first (its builds may take longer)
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), NICE)
+        except (AttributeError, OSError):
+            pass
         while True:
             with self._cond:
                 while self._wanted is None and not self._closed:
