@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from latent_planner_ros.data.cloud_ops import REACH_CROP_MAX, REACH_CROP_MIN
 from sim_bridge.params import ConfigError, check_int, check_number, check_vector
 
 Vec3 = tuple[float, float, float]
@@ -49,8 +50,8 @@ class CameraConfig:
     min_depth: float = 0.1
     max_depth: float = 3.0
     stride: int = 1
-    crop_min: Vec3 = (-1.0, -1.0, -0.02)
-    crop_max: Vec3 = (1.0, 1.0, 1.3)
+    crop_min: Vec3 = REACH_CROP_MIN
+    crop_max: Vec3 = REACH_CROP_MAX
     voxel_size: float = 0.02
     depth_noise: float = 0.0
     dropout: float = 0.0

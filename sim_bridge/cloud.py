@@ -1,8 +1,13 @@
-"""Depth image -> point cloud, pure numpy: unprojection, noise and dropout, cropping, voxel downsampling."""
+"""Depth image -> point cloud, pure numpy: unprojection, noise and dropout; cropping and voxel downsampling are the
+core's (latent_planner_ros/data/cloud_ops.py), the same for every user of clouds."""
 
 from __future__ import annotations
 
 import numpy as np
+
+from latent_planner_ros.data.cloud_ops import crop, voxel_downsample
+
+__all__ = ["corrupt_depth", "crop", "pixel_rays", "unproject", "voxel_downsample"]
 
 
 def pixel_rays(height: int, width: int, focal_px: float, stride: int = 1) -> np.ndarray:
@@ -38,25 +43,3 @@ def unproject(depth: np.ndarray, rays: np.ndarray, position: np.ndarray, rotatio
     keep = np.isfinite(depth)
     cam = rays[keep] * depth[keep][:, None]
     return cam @ np.asarray(rotation).T + np.asarray(position)
-
-
-def crop(points: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-    """The points (N, 3) inside the axis-aligned box [low, high] [m]."""
-    inside = np.all((points >= np.asarray(low)) & (points <= np.asarray(high)), axis=1)
-    return points[inside]
-
-
-def voxel_downsample(points: np.ndarray, voxel_size: float) -> np.ndarray:
-    """One point per occupied voxel of edge voxel_size [m] (the mean of its points); (M, 3), M <= N.
-
-    The output order follows the voxels' sorted integer coordinates, so it is deterministic.
-    """
-    if voxel_size <= 0.0 or len(points) == 0:
-        return points
-    keys = np.floor(points / voxel_size).astype(np.int64)
-    keys -= keys.min(axis=0)
-    dims = keys.max(axis=0) + 1
-    linear = (keys[:, 0] * dims[1] + keys[:, 1]) * dims[2] + keys[:, 2]
-    _, inverse, counts = np.unique(linear, return_inverse=True, return_counts=True)
-    sums = [np.bincount(inverse, weights=points[:, k], minlength=len(counts)) for k in range(3)]
-    return np.stack(sums, axis=1) / counts[:, None]

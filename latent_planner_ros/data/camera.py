@@ -80,13 +80,13 @@ class CameraConfig:
 
 def planning_crop() -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     """Lower and upper corner [m] in `world` of the box the benches crop the clouds they give the planners to: the
-    sim camera's (`camera.crop_min` / `crop_max` of config/sim.yaml), which covers the arm's reach all around its
-    base, so no obstacle the arm can hit is cropped away. The collision network crops its own input to its smaller
-    workspace box (its checkpoint's `grid`); the planners' geometric checks see the whole cloud."""
-    from sim_bridge.camera_config import CameraConfig as SimCameraConfig
+    reach box of data/cloud_ops.py (the sim cameras' default `crop_min` / `crop_max` too), which covers the arm's
+    reach all around its base, so no obstacle the arm can hit is cropped away. The collision network crops its own
+    input to its smaller workspace box (its checkpoint's `grid`); the planners' geometric checks see the whole
+    cloud."""
+    from latent_planner_ros.data.cloud_ops import REACH_CROP_MAX, REACH_CROP_MIN
 
-    sim = SimCameraConfig()
-    return sim.crop_min, sim.crop_max
+    return REACH_CROP_MIN, REACH_CROP_MAX
 
 
 def sample_camera_pose(rng: np.random.Generator, config: CameraConfig) -> np.ndarray:

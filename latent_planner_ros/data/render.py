@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from latent_planner_ros.data.camera import CameraConfig, CameraIntrinsics, sample_camera_pose
+from latent_planner_ros.data.cloud_ops import crop
+from latent_planner_ros.data.cloud_ops import voxel_downsample as float64_voxel_downsample
 from latent_planner_ros.data.obstacle_geometry import triangle_mesh
 from latent_planner_ros.data.scene import Scene
-from sim_bridge.cloud import voxel_downsample as sim_voxel_downsample
 
 TABLE_TOP = ((-0.6, -1.2), (1.6, 1.2))
 """Rendered table top: (x_min, y_min), (x_max, y_max) [m] of the plane z = 0."""
@@ -66,12 +67,6 @@ def add_depth_noise(depth: np.ndarray, rng: np.random.Generator, sigma: float, q
     return np.where(finite, noisy, np.inf).astype(np.float32)
 
 
-def crop(points: np.ndarray, lo: tuple[float, float, float], hi: tuple[float, float, float]) -> np.ndarray:
-    """Points (N, 3) inside the axis-aligned box [lo, hi] [m]."""
-    keep = np.all((points >= np.asarray(lo)) & (points <= np.asarray(hi)), axis=1)
-    return points[keep]
-
-
 def scene_view(
     scene: Scene, rng: np.random.Generator, config: CameraConfig | None = None, pose: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -98,7 +93,7 @@ def scene_cloud(
 
 def voxel_downsample(points: np.ndarray, size: float) -> np.ndarray:
     """One point per occupied cubic voxel of edge `size` [m] (the mean of its points), float32 (M, 3); the sim
-    camera's downsampling (sim_bridge.cloud.voxel_downsample)."""
+    camera's downsampling (data/cloud_ops.voxel_downsample)."""
     if len(points) == 0 or size <= 0.0:
         return points
-    return sim_voxel_downsample(np.asarray(points, dtype=float), size).astype(np.float32)
+    return float64_voxel_downsample(points, size).astype(np.float32)

@@ -84,6 +84,7 @@ from latent_planner_ros.planning.time_parameterisation import jerk_limited_traje
 from msg_adapters import (
     AdapterError,
     apply_marker_array,
+    cloud_to_embedding,
     cloud_to_xyz,
     cylinders_to_array,
     cylinders_to_marker_array,
@@ -389,7 +390,8 @@ class PlannerNode(Node):
     @_locked
     def _on_embedding(self, msg: PointCloud2) -> None:
         try:
-            embedding = self.modes.amp_ls.planner.backend.embedding_from_msg(msg)
+            centres, features = cloud_to_embedding(msg)
+            embedding = self.modes.amp_ls.planner.backend.embedding_from_points(centres, features)
         except (AdapterError, ValueError) as err:
             self._error(f"scene_embedding refused: {err}")
             return

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim_bridge.cloud import voxel_downsample
+from latent_planner_ros.data.cloud_ops import voxel_downsample
 
 OK, WARN, ERROR = 0, 1, 2
 """Diagnostic levels (as in diagnostic_msgs/DiagnosticStatus)."""

@@ -24,7 +24,6 @@ from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.planning.network_domain import share_outside
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.torch_fk import TorchFK
-from msg_adapters import cloud_to_embedding
 
 DOMAIN_SHARE = 0.2
 """default `domain_share`: on the shipped sets' clouds, no tabletop scene has more than 0.18 of its occupied
@@ -155,9 +154,10 @@ class LearnedBackend:
         self._fallback.set_scene(cloud)
         return True
 
-    def embedding_from_msg(self, msg) -> SceneEmbedding:
-        """Decode a `scene_embedding` PointCloud2 (voxel centres + float32 fields f0..); AdapterError/ValueError."""
-        centres, features = cloud_to_embedding(msg)
+    def embedding_from_points(self, centres: np.ndarray, features: np.ndarray) -> SceneEmbedding:
+        """The SceneEmbedding of a `scene_embedding` message's voxel centres (V, 3) [m] and features (V, C)
+        float32 (msg_adapters.cloud_to_embedding decodes the message); ValueError for a grid or width that is not
+        this network's."""
         return self.predictor.embedding_from_points(centres, features)
 
     # -- queries ----------------------------------------------------------------------------------

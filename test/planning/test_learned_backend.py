@@ -13,7 +13,7 @@ from latent_planner_ros.models.vae_config import VaeConfig
 from latent_planner_ros.planning.learned_backend import LearnedBackend
 from latent_planner_ros.robot.limits import Q_READY
 from latent_planner_ros.robot.panda import load_panda
-from msg_adapters import xyz_to_cloud
+from msg_adapters import cloud_to_embedding, xyz_to_cloud
 
 SMALL = CollisionNetConfig(
     encoder=SceneEncoderConfig(
@@ -35,12 +35,12 @@ def test_embedding_message_round_trip_and_refusals(rng):
     backend.set_scene(cloud)
     centres, feats = backend.embedding.to_points()
     msg = xyz_to_cloud(centres, features=feats)
-    back = backend.embedding_from_msg(msg)
+    back = backend.embedding_from_points(*cloud_to_embedding(msg))
     torch.testing.assert_close(back.features, backend.embedding.features)
     with pytest.raises(ValueError, match="features"):
-        backend.embedding_from_msg(xyz_to_cloud(centres, features=feats[:, :3]))
+        backend.embedding_from_points(*cloud_to_embedding(xyz_to_cloud(centres, features=feats[:, :3])))
     with pytest.raises(ValueError):
-        backend.embedding_from_msg(xyz_to_cloud(centres[:-1], features=feats[:-1]))
+        backend.embedding_from_points(*cloud_to_embedding(xyz_to_cloud(centres[:-1], features=feats[:-1])))
 
 
 def test_cost_is_differentiable_and_matches_the_predictor(rng):
