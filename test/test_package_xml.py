@@ -23,6 +23,9 @@ ROSDEP_KEYS = {
     "tqdm": "python3-tqdm",
     "imageio": "python3-imageio",
     "open3d": "python3-open3d-pip",
+    "hypothesis": "python3-hypothesis",
+    "trimesh": "python3-trimesh-pip",
+    "selenium": "python3-selenium",
 }
 """Imported module -> its rosdep key, for the libraries package.xml declares as rosdep keys."""
 REQUIREMENT_MODULES = {"pyyaml": "yaml", "pin": "pinocchio"}
@@ -94,7 +97,7 @@ def test_every_pip_requirement_is_a_rosdep_key_or_named_in_the_manifest(manifest
     runtime = [n for n in names if n and not n.startswith("#") and not n.startswith(TOOLING)]
     assert {"torch", "ruckig", "numpy"} <= set(runtime)
     comments = " ".join(re.findall(r"<!--(.*?)-->", (REPO / "package.xml").read_text(), re.S))
-    declared = exec_depends(manifest)
+    declared = exec_depends(manifest) | {(e.text or "").strip() for e in manifest.findall("test_depend")}
     for name in runtime:
         key = ROSDEP_KEYS.get(REQUIREMENT_MODULES.get(name, name))
         assert (key in declared) if key else (name in comments), f"{name}: neither its rosdep key nor a reason"
