@@ -90,7 +90,7 @@ class SoakRun:
             else:
                 pose = resolve_pose(ev, self.scene)
                 if pose is None:
-                    return self._skip(ev, "no still object in this scene")
+                    return self._skip(ev, "no object in this scene the open hand fits round")
                 self.s.send_goal(kind, pose, grasp=ev.kind == "grasp_goal")
         elif ev.kind == "camera_dropout":
             self.camera_off_until = max(self.camera_off_until, now + p["duration_s"])

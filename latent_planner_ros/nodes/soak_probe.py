@@ -274,7 +274,15 @@ class SoakSession(ProbeSession):
 
     def switch_scenario(self, scenario: str, seed: int, overrides: str) -> str:
         """Set the sim's scenario, seed and overrides and reset it; the arm's jump is announced to the monitor."""
-        for name, value in (("scenario", scenario), ("seed", int(seed)), ("scenario_overrides", overrides)):
+        # the overrides are cleared first: the sim refuses a scenario that would not load with the overrides in
+        # place (a tabletop with the conveyor's "{speed: ...}")
+        steps = (
+            ("scenario_overrides", ""),
+            ("scenario", scenario),
+            ("seed", int(seed)),
+            ("scenario_overrides", overrides),
+        )
+        for name, value in steps:
             ok, reason = self.set_parameter("sim", name, value)
             if not ok:
                 raise RuntimeError(f"sim refused {name}={value!r}: {reason}")

@@ -231,6 +231,7 @@ def test_short_soak_writes_a_complete_report(tmp_path):
     assert set(res["nodes"]) == set(res["nodes_run"]) and all(n["samples"] >= 3 for n in res["nodes"].values())
     assert res["events"]["scenario"] == 2 and res["events"]["camera_dropout"] >= 1 and res["events"]["joint_pause"] >= 1
     assert res["relayed"]["clouds"] > 0 and res["relayed"]["joint_states"] > 1000
+    assert res["event_errors"] == [], res["event_errors"]
     for name in ("soak.md", "soak_resources.png", "soak_ticks.png", "soak_goals.png", "soak_events.json"):
         assert (tmp_path / name).stat().st_size > 0
     assert code == (0 if res["contacts"] == 0 else 1)
