@@ -55,7 +55,7 @@ class RayConnection:
         if self.owned:
             if config.cluster == "auto":
                 cpus = config.workers or os.cpu_count() or 1
-                ray.init(num_cpus=cpus, include_dashboard=False, configure_logging=False)
+                ray.init(address="local", num_cpus=cpus, include_dashboard=False, configure_logging=False)
             else:
                 ray.init(address=config.cluster, configure_logging=False)
         self.remote = ray.remote(run_pickled).options(max_retries=config.retries, num_cpus=1)

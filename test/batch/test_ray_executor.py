@@ -58,7 +58,7 @@ def _alive(pid: int) -> bool:
 @pytest.fixture(scope="module")
 def cluster():
     """One local Ray cluster of 2 CPUs for the module; at the end, every Ray process it started is gone."""
-    ray.init(num_cpus=2, include_dashboard=False, configure_logging=False)
+    ray.init(address="local", num_cpus=2, include_dashboard=False, configure_logging=False)
     ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # Ray workers cannot import this test module
     try:
         yield
