@@ -22,6 +22,29 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from browser import chromium, dismiss_notifications  # noqa: E402
 
 
+def _cpu_seconds(driver, port: int) -> tuple[float, float]:
+    """CPU seconds (user + system) used so far by the view process and by the browser's processes."""
+    import psutil
+
+    def used(procs) -> float:
+        total = 0.0
+        for p in procs:
+            try:
+                t = p.cpu_times()
+                total += t.user + t.system
+            except psutil.Error:
+                pass
+        return total
+
+    view = [
+        p
+        for p in psutil.process_iter(["cmdline"])
+        if p.info["cmdline"] and "view" in p.info["cmdline"] and str(port) in p.info["cmdline"]
+    ]
+    browser = psutil.Process(driver.service.process.pid).children(recursive=True)
+    return used(view), used(browser)
+
+
 def main(argv: list[str]) -> int:
     out = Path(argv[0])
     shot_at, browser_nice = 20.0, 0
@@ -58,11 +81,18 @@ def main(argv: list[str]) -> int:
             for child in psutil.Process(driver.service.process.pid).children(recursive=True):
                 child.nice(browser_nice)
         t0 = time.monotonic()
+        cpu = _cpu_seconds(driver, port)
         while proc.poll() is None and time.monotonic() - t0 < shot_at:
             time.sleep(0.5)
         dismiss_notifications(driver)
         time.sleep(0.5)
         driver.save_screenshot(str(out / "view.png"))
+        end, wall = _cpu_seconds(driver, port), time.monotonic() - t0
+        print(
+            f"[watch] CPU over {wall:.0f} s with the page open: view {(end[0] - cpu[0]) / wall:.0%} of a core, "
+            f"browser {(end[1] - cpu[1]) / wall:.0%}",
+            flush=True,
+        )
         proc.wait()
     finally:
         driver.quit()
