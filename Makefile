@@ -7,7 +7,7 @@ STAMP := $(VENV)/.stamp-setup
 
 setup: $(STAMP)
 
-$(STAMP): requirements.txt setup.py scripts/setup.sh
+$(STAMP): requirements.txt requirements-cluster.txt setup.py scripts/setup.sh
 	VENV=$(VENV) bash scripts/setup.sh
 	touch $(STAMP)
 

@@ -19,6 +19,7 @@ The result is one PlanResult over the joined path; its info carries "target_poin
 
 from __future__ import annotations
 
+import threading
 import time
 from contextlib import nullcontext
 from dataclasses import dataclass, field
@@ -26,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from latent_planner_ros.perception.grasp_target import GraspTargetConfig, TargetBox, split_target
+from latent_planner_ros.planning.geometric_backend import GeometricBackend, GeometricBackendConfig
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.grasp_approach import ApproachConfig, segment_check_for, straight_approach
 from latent_planner_ros.planning.result import PlanResult, result_from_path
@@ -84,6 +86,30 @@ def _exact_check(planner):
     return backend.geometric_only() if hasattr(backend, "geometric_only") else nullcontext()
 
 
+_TOUCH = threading.local()  # per thread: the node's service thread and its plan runner may both grasp
+
+
+def target_touch(q_path: np.ndarray, target: np.ndarray) -> str:
+    """ "" if no state of q_path (K, 7) [rad] has a target point (M, 3) [m] inside one of its links' convex hulls,
+    else why the grasp is refused: the target's points are set aside from the obstacles, so only this keeps the
+    hand and fingers from closing on an object wider than the open hand, or off the closing region's centre
+    (points between the fingers are outside every hull and are fine)."""
+    if not len(target) or not len(q_path):
+        return ""
+    if getattr(_TOUCH, "backend", None) is None:
+        _TOUCH.backend = GeometricBackend(GeometricBackendConfig(exact_margin=0.0, floor_z=None))
+    backend = _TOUCH.backend
+    backend.set_check_cloud(np.asarray(target, dtype=float))
+    hit = np.flatnonzero(backend.check(np.atleast_2d(q_path)))
+    if not len(hit):
+        return ""
+    where = "at the grasp" if hit[0] == len(q_path) - 1 else f"{hit[0] + 1} of {len(q_path)} states into the approach"
+    return (
+        f"grasp refused: the hand would touch the target {where} (an object wider than the open hand, or off the "
+        "centre of the fingers)"
+    )
+
+
 def grasp_reason(result: PlanResult) -> str:
     """A grasp plan's reason with how many target points were set aside, for a caller (the nodes' plan
     results), e.g. "reached (grasp: 137 target points set aside)"."""
@@ -128,12 +154,13 @@ def plan_grasp(
     if approach_m <= 0:
         direct = planner.plan(start_q, goal, obstacles, obstacle_origin)
         info.update(direct.info, approach="none", transit=direct.reason)
+        touch = target_touch(direct.q_path[-1:], split.target) if direct.success else ""
         return result_from_path(
             panda,
             direct.q_path,
             goal,
-            solved=direct.success,
-            reason=direct.reason,
+            solved=direct.success and not touch,
+            reason=touch or direct.reason,
             t0=t0,
             speed_scale=speed,
             iterations=direct.iterations,
@@ -154,15 +181,16 @@ def plan_grasp(
     with _exact_check(planner):  # the approach passes 1.5 cm from surfaces: the exact check decides, not a network
         check.set_cloud(obstacles, obstacle_origin)
         approach = straight_approach(panda, transit.q_path[-1], goal, check, cfg.approach)
+    refused = approach.refused or target_touch(approach.q_path, split.target)
     timings["approach_s"] = time.perf_counter() - t
-    info["approach"] = approach.refused or f"{len(approach.q_path)} states, {approach_m * 100:g} cm"
+    info["approach"] = refused or f"{len(approach.q_path)} states, {approach_m * 100:g} cm"
     q_path = np.concatenate([transit.q_path, approach.q_path])
     return result_from_path(
         panda,
         q_path,
         goal,
-        solved=not approach.refused,
-        reason=approach.refused or "reached",
+        solved=not refused,
+        reason=refused or "reached",
         t0=t0,
         speed_scale=speed,
         iterations=transit.iterations,

@@ -156,3 +156,15 @@ def test_with_the_learned_backend_the_approach_is_checked_exactly_and_the_backen
     assert result.success, result.reason
     assert PathJudge(Scene((BOARD, OBJECT)), table=True).judge(result.q_path, GOAL).collision == ""
     assert not backend._forced
+
+
+@pytest.mark.parametrize("name", ["amp_ls", "rrtconnect"])
+def test_an_object_wider_than_the_open_hand_is_refused_not_grasped(planners, name):
+    """10 cm across the fingers (the hand opens 8 cm): its points are the target, set aside from the obstacles,
+    so only the target-touch check keeps the fingers out of it."""
+    wide = Box((0.6, 0.0, 0.231), UPRIGHT, (0.02, 0.05, 0.07))
+    cloud = np.concatenate([_surface(BOARD), _surface(wide)])
+    for approach in (0.08, 0.0):
+        result = plan_grasp(planners[name], _start(), GOAL, cloud, None, approach_m=approach)
+        assert not result.success
+        assert result.reason.startswith("grasp refused: the hand would touch the target"), (approach, result.reason)
