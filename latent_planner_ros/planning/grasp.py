@@ -27,11 +27,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from latent_planner_ros.perception.grasp_target import GraspTargetConfig, TargetBox, split_target
-from latent_planner_ros.planning.geometric_backend import GeometricBackend, GeometricBackendConfig
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.grasp_approach import ApproachConfig, segment_check_for, straight_approach
 from latent_planner_ros.planning.result import PlanResult, result_from_path
+from latent_planner_ros.robot.link_hulls import link_hull_planes, plane_distance
 from latent_planner_ros.robot.panda import load_panda
+from latent_planner_ros.robot.torch_fk import TorchFK
 
 DEFAULT_APPROACH_M = 0.08
 """[m] pre-grasp distance back along the hand's z axis when a grasp problem names none"""
@@ -86,28 +87,36 @@ def _exact_check(planner):
     return backend.geometric_only() if hasattr(backend, "geometric_only") else nullcontext()
 
 
-_TOUCH = threading.local()  # per thread: the node's service thread and its plan runner may both grasp
+TOUCH_DEPTH_M = 0.003
+"""[m] a target point counts as touched this far inside a link's hull: the depth camera's noise puts points of an
+object the open fingers clear by a few millimetres up to 2 mm inside them (the generator's grasp configurations,
+free on the true meshes, had noisy target points 1.8 mm deep)"""
+
+_FK = threading.local()  # per thread: the node's service thread and its plan runner may both grasp
 
 
 def target_touch(q_path: np.ndarray, target: np.ndarray) -> str:
-    """ "" if no state of q_path (K, 7) [rad] has a target point (M, 3) [m] inside one of its links' convex hulls,
-    else why the grasp is refused: the target's points are set aside from the obstacles, so only this keeps the
-    hand and fingers from closing on an object wider than the open hand, or off the closing region's centre
-    (points between the fingers are outside every hull and are fine)."""
+    """ "" if no state of q_path (K, 7) [rad] has a target point (M, 3) [m] more than TOUCH_DEPTH_M inside one of
+    its links' convex hulls, else why the grasp is refused: the target's points are set aside from the obstacles,
+    so only this keeps the hand and fingers from closing on an object wider than the open hand, or off the centre
+    of the fingers (points between the fingers are outside every hull and are fine)."""
+    target = np.asarray(target, dtype=float).reshape(-1, 3)
+    q_path = np.atleast_2d(np.asarray(q_path, dtype=float))
     if not len(target) or not len(q_path):
         return ""
-    if getattr(_TOUCH, "backend", None) is None:
-        _TOUCH.backend = GeometricBackend(GeometricBackendConfig(exact_margin=0.0, floor_z=None))
-    backend = _TOUCH.backend
-    backend.set_check_cloud(np.asarray(target, dtype=float))
-    hit = np.flatnonzero(backend.check(np.atleast_2d(q_path)))
-    if not len(hit):
-        return ""
-    where = "at the grasp" if hit[0] == len(q_path) - 1 else f"{hit[0] + 1} of {len(q_path)} states into the approach"
-    return (
-        f"grasp refused: the hand would touch the target {where} (an object wider than the open hand, or off the "
-        "centre of the fingers)"
-    )
+    if getattr(_FK, "fk", None) is None:
+        _FK.fk = TorchFK()
+    frames = _FK.fk.frames_np(q_path)  # (K, F, 4, 4)
+    for k in range(len(q_path)):
+        for link, planes in link_hull_planes().items():
+            rot, origin = frames[k, link, :3, :3], frames[k, link, :3, 3]
+            if plane_distance(planes, (target - origin) @ rot).min() < -TOUCH_DEPTH_M:
+                where = "at the grasp" if k == len(q_path) - 1 else f"{k + 1} of {len(q_path)} states into the approach"
+                return (
+                    f"grasp refused: the hand would touch the target {where} (an object wider than the open hand, or "
+                    "off the centre of the fingers)"
+                )
+    return ""
 
 
 def grasp_reason(result: PlanResult) -> str:
