@@ -60,6 +60,39 @@ def scene_nodes(driver) -> dict:
     )
 
 
+SCREEN_POINTS_JS = """
+const m = window.__viserMutable, ref = m.nodeRefFromName[arguments[0]];
+const obj = ref.current || ref;
+obj.updateWorldMatrix(true, false);
+const rect = m.canvas.getBoundingClientRect();
+return arguments[1].map(([x, y, z]) => {
+    const v = m.camera.position.clone().set(x, y, z);
+    obj.localToWorld(v);
+    v.project(m.camera);
+    return [(v.x + 1) / 2 * rect.width - rect.width / 2, (1 - v.y) / 2 * rect.height - rect.height / 2];
+});
+"""
+
+
+def screen_offsets(driver, node: str, local_points) -> list[tuple[float, float]]:
+    """Where points given in a scene node's own frame (its three.js object) appear on the canvas: offsets [px]
+    from the canvas centre (as Selenium's move_to_element_with_offset takes them)."""
+    return [
+        tuple(p) for p in driver.execute_script(SCREEN_POINTS_JS, node, [list(map(float, q)) for q in local_points])
+    ]
+
+
+def drag(driver, start: tuple[float, float], end: tuple[float, float], steps: int = 10) -> None:
+    """Press the left button at `start` on the canvas, move to `end` in steps, release (offsets from its centre)."""
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    canvas = driver.execute_script("return window.__viserMutable.canvas")
+    chain = ActionChains(driver).move_to_element_with_offset(canvas, int(start[0]), int(start[1])).click_and_hold()
+    for _ in range(steps):
+        chain.move_by_offset(int((end[0] - start[0]) / steps), int((end[1] - start[1]) / steps))
+    chain.release().perform()
+
+
 def dismiss_notifications(driver) -> None:
     """Close viser's toasts (e.g. "Software WebGL rendering detected") so they do not cover a screenshot."""
     driver.execute_script(

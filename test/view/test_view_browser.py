@@ -1,6 +1,6 @@
 """The view as a user sees it: a headless Chromium opens the page served by ``python -m latent_planner_ros view``,
-the robot (at the published joint state) and a 30k-point cloud appear, a goal typed into the page arrives on
-goal_pose, and the "Planner enabled" box calls the planner's enable service.
+the robot (at the published joint state) and a 30k-point cloud appear, a goal typed into the page and a drag of
+the goal gizmo arrive on goal_pose, the "Planner enabled" box calls the planner's enable service, Pause freezes.
 
 The publishers are fake ones in this process (joint_states, camera/points, planner/status, planner/enable): the
 view is tested against what it reads, not the suite's behaviour.
@@ -26,8 +26,10 @@ from test.view.browser import (
     Q,
     chromium,
     dismiss_notifications,
+    drag,
     free_port,
     scene_nodes,
+    screen_offsets,
     wait_for,
     wait_http,
 )
@@ -138,6 +140,28 @@ def test_a_goal_typed_into_the_page_arrives_on_goal_pose(view_page):
         return position is not None and np.allclose(position, [0.52, -0.21, 0.33], atol=1e-4)
 
     wait_for(gizmo_at_goal, 5.0, "the gizmo at the goal")
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+@pytest.mark.timeout(60)
+def test_dragging_the_goal_gizmo_sends_goals_that_follow_it(view_page):
+    driver, suite, _ = view_page
+    before = np.array(scene_nodes(driver)["/goal"]["position"])
+    # press on the gizmo's x arrow (local frame: 0.14 m out of its 0.18 m) and pull it out to 0.3 m
+    start, end = screen_offsets(driver, "/goal", [(0.14, 0.0, 0.0), (0.3, 0.0, 0.0)])
+    suite.goals.clear()
+    drag(driver, start, end)
+
+    def moved():
+        after = (scene_nodes(driver) or {}).get("/goal", {}).get("position")
+        return after if after is not None and np.linalg.norm(np.array(after) - before) > 0.03 else None
+
+    after = np.array(wait_for(moved, 10.0, "the gizmo to move"))
+    wait_for(lambda: suite.goals, 5.0, "goal_pose while dragging")
+    time.sleep(0.5)  # the last goal of the drag
+    p = suite.goals[-1].pose.position
+    assert np.allclose([p.x, p.y, p.z], after, atol=1e-3), "the last goal is not where the gizmo was left"
 
 
 @pytest.mark.ros
