@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import random
+import signal
 import subprocess
 import sys
 import threading
@@ -184,3 +185,42 @@ def test_replay_publishes_the_recorded_messages_with_their_timing(recorded):
     recorded_span = (recorded_joints[-1][0] - recorded_joints[0][0]) * 1e-9
     replay_span = got[-1][0] - got[0][0]
     assert replay_span == pytest.approx(recorded_span, rel=0.15)
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+@pytest.mark.timeout(120)
+def test_replay_into_the_view_shows_the_recorded_arm_and_cloud(recorded):
+    """``replay BAG --view``: the page shows the recorded robot and cloud (Chromium, as in test/view)."""
+    from test.view.browser import CHROMEDRIVER, CHROMIUM, chromium, free_port, scene_nodes, wait_for, wait_http
+
+    if not (CHROMIUM.exists() and CHROMEDRIVER.exists()):
+        pytest.skip("Debian chromium and chromium-driver (make setup)")
+    bag, _ = recorded
+    port, domain = free_port(), random.SystemRandom().randint(101, 200)
+    cmd = [sys.executable, "-m", "latent_planner_ros", "replay", str(bag), "--view", "--port", str(port)]
+    cmd += ["--domain-id", str(domain)]
+    proc = subprocess.Popen(cmd, cwd=REPO, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    driver = None
+    try:
+        wait_http(f"http://localhost:{port}", proc)
+        driver = chromium()
+        driver.get(f"http://localhost:{port}")
+
+        def shown():
+            nodes = scene_nodes(driver) or {}
+            cloud, hand = nodes.get("/clouds/camera/points"), nodes.get("/robot/panda_hand_0")
+            return cloud is not None and cloud["points"] > 100 and hand is not None and hand["visible"]
+
+        wait_for(shown, 60.0, "the replayed robot and cloud in the page")
+    finally:
+        if driver is not None:
+            driver.quit()
+        proc.send_signal(signal.SIGINT)
+        try:
+            output, _ = proc.communicate(timeout=15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            output, _ = proc.communicate()
+    assert proc.returncode == 0, output[-2000:]
+    assert f"[replay] {bag}:" in output  # interrupted while playing or after: either ends cleanly
