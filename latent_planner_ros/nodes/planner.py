@@ -592,6 +592,14 @@ class PlannerNode(Node):
         self.pub_markers.publish(path_markers(positions, goal_world, stamp))
         return SUCCESS, reason, result
 
+    def _link_p_collision(self) -> dict[str, float]:
+        """{link: p(collision)} the active backend gives the measured joint state ({} without one, or in LSPP)."""
+        backend = self.modes.active.planner.backend
+        q = self.modes.active.fresh_joint_state(self._now())
+        if q is None or not hasattr(backend, "link_p_collision"):
+            return {}
+        return backend.link_p_collision(q)
+
     @_locked
     def _publish_status(self) -> None:
         o = self._last_outcome
@@ -610,6 +618,9 @@ class PlannerNode(Node):
             "grasp_target": self.grasp_target.describe(self.config.grasp_target_radius_m),
             **o.values,
         }
+        links = self._link_p_collision()
+        if links:
+            values["p_collision_links"] = " ".join(f"{name}={p:.3f}" for name, p in links.items())
         stamp = self.get_clock().now().to_msg()
         msg = status_array("planner", o.level, f"{o.state}: {o.reason}", values, self.modes.active.planner.name, stamp)
         self.pub_status.publish(msg)

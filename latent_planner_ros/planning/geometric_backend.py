@@ -181,6 +181,18 @@ class GeometricBackend:
         logits = (cfg.margin - self.clearance(q)) / cfg.temperature
         return torch.sigmoid(logits.max(dim=1).values)
 
+    def link_p_collision(self, q: np.ndarray) -> dict[str, float]:
+        """p(collision) of each moving link for one configuration q (7,) [rad]: {link frame name: p}, the cost's
+        probability (p_collision) of the link's own spheres (for display, e.g. the view's link colours)."""
+        with torch.no_grad():
+            clearance = self.clearance(torch.as_tensor(np.asarray(q, dtype=np.float32)[None]))[0].numpy()
+        links = self.spheres.link[self._idx.numpy()]
+        cfg = self.config
+        return {
+            LINK_FRAMES[lk]: float(1.0 / (1.0 + np.exp(-(cfg.margin - clearance[links == lk].min()) / cfg.temperature)))
+            for lk in np.unique(links)
+        }
+
     def check(self, q: np.ndarray) -> np.ndarray:
         """Hard decision (M,) bool for q (M, 7) [rad]: an observed point closer than radius + check_margin to the
         centre of one of the arm's spheres."""

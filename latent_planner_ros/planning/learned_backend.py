@@ -172,6 +172,16 @@ class LearnedBackend:
         logits = self.predictor.link_logits_q(self.embedding, q.float(), z.float(), poses)
         return torch.sigmoid(self.predictor.net.combine(logits)).to(z.dtype)
 
+    def link_p_collision(self, q: np.ndarray) -> dict[str, float]:
+        """p(collision) of each of the network's links for one configuration q (7,) [rad]: {link frame name: p}
+        (the geometric fallback's links while it stands in)."""
+        if self.mode == "geometric":
+            return self._fallback.link_p_collision(q)
+        with torch.no_grad():
+            q_t = torch.as_tensor(np.asarray(q, dtype=np.float32)[None])
+            p = torch.sigmoid(self.predictor.link_logits_q(self.embedding, q_t, None))[0].numpy()
+        return {LINK_FRAMES[f]: float(v) for f, v in zip(self._label_frames, p, strict=True)}
+
     def check(self, q: np.ndarray) -> np.ndarray:
         """Hard decision (M,) bool for configurations q (M, 7) [rad]."""
         q = np.atleast_2d(np.asarray(q, dtype=np.float64))
