@@ -43,6 +43,24 @@ def height_colors(points: np.ndarray, z_lo: float = 0.0, z_hi: float = 0.25) -> 
     return (lo + (hi - lo) * t).astype(np.uint8)
 
 
+def link_probabilities(values: dict[str, str]) -> dict[str, float] | float:
+    """The collision probabilities in a planner status: {link: p} from ``p_collision_links`` ("link=p link=p ..."),
+    else the arm's one ``p_collision`` (0.0 when neither is there or readable)."""
+    links = {}
+    for item in values.get("p_collision_links", "").split():
+        name, _, p = item.partition("=")
+        try:
+            links[name] = float(p)
+        except ValueError:
+            continue
+    if links:
+        return links
+    try:
+        return float(values.get("p_collision", "0") or 0.0)
+    except ValueError:
+        return 0.0
+
+
 @dataclass(frozen=True)
 class Shape:
     """An obstacle or marker to draw: kind "cylinder" (scale = diameter x, y, height z), "sphere" or "line"."""
@@ -250,7 +268,8 @@ class SuiteScene:
                 self._shapes[key] = scene.add_line_segments(name, seg, colors=s.rgb, line_width=3.0)
 
     def set_status(self, values: dict[str, str], level: int = 0) -> None:
-        """The planner's status (its DiagnosticStatus values) as text; colours the arm by `p_collision`."""
+        """The planner's status (its DiagnosticStatus values) as text; colours the links by `p_collision_links`
+        (else the whole arm by `p_collision`)."""
         keys = ("state", "mode", "command_source", "tick_ms", "p_collision", "pos_err_m", "cloud_points_used")
         lines = [f"**{k}**: {values[k]}" for k in keys if k in values]
         if values.get("last_error"):
@@ -260,10 +279,7 @@ class SuiteScene:
         self.status_md.content = "  \n".join(lines) or "*empty status*"
         if "state" in values:
             self.enabled.value = values["state"] != "disabled"
-        try:
-            self.set_link_collision(float(values.get("p_collision", "0") or 0.0))
-        except ValueError:
-            pass
+        self.set_link_collision(link_probabilities(values))
 
     def set_info(self, text: str) -> None:
         """A line under the view's controls (rates, counts)."""

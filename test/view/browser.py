@@ -53,6 +53,7 @@ def scene_nodes(driver) -> dict:
                 visible: node.effectiveVisibility !== false,
                 points: props.points ? props.points.byteLength / (props.precision === "float16" ? 6 : 12) : null,
                 position: pose ? pose.position : null,
+                color: props.color ? Array.from(props.color) : null,
             };
         }
         return out;
@@ -102,8 +103,9 @@ def dismiss_notifications(driver) -> None:
 
 
 class FakeSuite:
-    """joint_states (50 Hz), camera/points (10 Hz, N_POINTS), planner/status (disabled, p_collision 0.7), a
-    planner/enable service and a goal_pose subscription, spun in this process."""
+    """joint_states (50 Hz), camera/points (10 Hz, N_POINTS), planner/status (disabled, p_collision 0.7, the hand
+    at 0.9 and link1 at 0 in p_collision_links), a planner/enable service and a goal_pose subscription, spun in
+    this process."""
 
     def __init__(self, domain_id: int, cloud_hz: float = 10.0):
         import rclpy
@@ -147,6 +149,7 @@ class FakeSuite:
             lambda: self._publish_cloud(pub_cloud, node.get_clock().now().to_msg()),
         )
         status = {"state": "disabled", "p_collision": 0.7, "tick_ms": 3.2, "last_error": ""}
+        status["p_collision_links"] = "panda_link1=0.000 panda_hand=0.900"
         node.create_timer(0.2, lambda: pub_status.publish(status_array("planner", 0, "disabled", status)))
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(node)

@@ -39,3 +39,14 @@ def test_mesh_poses_follow_the_kinematics_of_their_links():
             assert np.linalg.norm(wxyz) == pytest.approx(1.0)
     wxyz, tcp = meshes.tcp(q)
     assert tcp == pytest.approx(panda.fk(q).translation)
+
+
+def test_link_probabilities_come_from_the_status_values():
+    from latent_planner_ros.view.scene import link_probabilities
+
+    assert link_probabilities({"p_collision_links": "panda_link1=0.010 panda_hand=0.900"}) == {
+        "panda_link1": 0.01,
+        "panda_hand": 0.9,
+    }
+    assert link_probabilities({"p_collision": "0.25"}) == 0.25  # the arm's one probability
+    assert link_probabilities({"p_collision": "n/a"}) == 0.0 and link_probabilities({}) == 0.0

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from latent_planner_ros.view.scene import ROBOT_RGB
 from test.view.browser import (
     CHROMEDRIVER,
     CHROMIUM,
@@ -107,6 +108,14 @@ def test_the_page_shows_the_robot_at_the_joint_state_and_the_cloud(view_page, tm
     assert np.allclose(nodes["/robot/panda_hand_0"]["position"], hand, atol=1e-3)
     assert all(nodes[f"/robot/panda_link{i}_0"]["visible"] for i in range(8))
     assert "/goal" in nodes and "/table" in nodes
+
+    # links coloured by the status's per-link probabilities: the hand (0.9) red, link1 (0) grey
+    def colours():
+        now = scene_nodes(driver) or {}
+        hand, link1 = now["/robot/panda_hand_0"]["color"], now["/robot/panda_link1_0"]["color"]
+        return (hand, link1) if hand and hand[0] > hand[1] + 100 and link1 == list(ROBOT_RGB) else None
+
+    wait_for(colours, 10.0, "the hand red and link1 grey")
     status = wait_for(lambda: "disabled" in driver.page_source and driver.page_source, 10.0, "the planner status")
     assert "p_collision" in status and "0.7" in status
     dismiss_notifications(driver)
