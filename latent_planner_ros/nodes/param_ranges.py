@@ -28,6 +28,7 @@ CLOSED_LOOP = {
     "follow_goal_tol_m": "> 0",
     "servo_radius_m": ">= 0",
     "servo_max_rad": ">= 0",
+    "servo_clearance_m": ">= 0",
 }
 
 AMP_LS = {

@@ -93,6 +93,10 @@ class ClosedLoopConfig:
     seed)"""
     servo_max_rad: float = 0.5
     """[rad] the largest joint change an IK servo target may ask for (a larger one is a different IK branch)"""
+    servo_clearance_m: float = 0.05
+    """[m] an IK servo command must keep the arm's spheres at least this far from the newest observed cloud (the
+    servo goes straight for the goal, without the latent cost's margin: near obstacles, which may be moving and
+    seen a camera period ago, the latent steps decide)"""
 
     def __post_init__(self) -> None:
         positive = ("rate_hz", "stale_joint_states_s", "stale_scene_s", "no_progress_s", "progress_m", "reach_m")
@@ -111,7 +115,7 @@ class ClosedLoopConfig:
             if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {v!r}")
         names = ("goal_clearance_m", "goal_lead_s", "goal_lead_max_m", "evade_margin_m", "evade_approach_mps",
-                 "servo_radius_m", "servo_max_rad")  # fmt: skip
+                 "servo_radius_m", "servo_max_rad", "servo_clearance_m")  # fmt: skip
         for name in (*names, "plan_wait_s"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v >= 0):
@@ -173,7 +177,9 @@ class ClosedLoopController:
         self._goal_track: deque[tuple[float, np.ndarray]] = deque()  # (time [s], position (3,) [m]) of goals
         self._checked_scene: Any = None  # the scene last handed to the backend for a followed command
         checker = getattr(planner, "checker", None)
-        self._evader = Evader(self.config.evade_margin_m, checker=checker) if self.config.evade_margin_m > 0 else None
+        # the newest clouds, for evasion (evade_margin_m) and the servo's clearance (servo_radius_m)
+        watched = self.config.evade_margin_m > 0 or self.config.servo_radius_m > 0
+        self._evader = Evader(self.config.evade_margin_m, checker=checker) if watched else None
 
     # -- inputs ----------------------------------------------------------------------------------
     def set_joint_state(self, q: np.ndarray, now: float) -> tuple[bool, str]:
@@ -458,6 +464,8 @@ class ClosedLoopController:
         if self.planner.config.use_collision and self._scene is not self._checked_scene:
             self.planner.backend.set_scene(self._scene)
             self._checked_scene = self._scene
+        if self._evader is not None and self._evader.least_clearance(command) < cfg.servo_clearance_m:
+            return None
         if not self.planner.segment_free(q, command):
             return None
         self.planner.reset()  # the next latent step re-encodes wherever the servo left the arm
@@ -496,7 +504,9 @@ class ClosedLoopController:
         [rad]: the planner's step, kept when it gains clearance itself; with fresh_cloud, only when the newest cloud
         is at most stale_scene_s old (holds without planning)."""
         cfg = self.config
-        if self._evader is None or (fresh_cloud and now - self._evader.newest_time > cfg.stale_scene_s):
+        if cfg.evade_margin_m <= 0 or self._evader is None:
+            return None
+        if fresh_cloud and now - self._evader.newest_time > cfg.stale_scene_s:
             return None
         clearance, speed = self._evader.threat(self._q)
         values.update(clearance_m=clearance, approach_mps=speed)

@@ -8,6 +8,7 @@ import numpy as np
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig, ClosedLoopController
+from latent_planner_ros.planning.evasion import Evader
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.robot.limits import Q_READY, V_MAX
@@ -31,7 +32,7 @@ def _track(vae, servo_m: float, cloud: np.ndarray, ticks: int = 50):
         goal = Goal(start + np.array([0.0, SPEED * now, 0.0]), DOWN)
         c.set_goal(goal, now)
         c.set_joint_state(q, now)
-        c.set_scene(cloud, now)
+        c.set_scene(cloud, now, cloud=cloud)  # as the planner node: the cloud for the checks and the watch
         out = c.tick(now)
         if out.command is not None:
             q = out.command
@@ -65,4 +66,8 @@ def test_a_servo_segment_the_hard_check_refuses_is_never_commanded(shipped_vae):
     planner.backend.set_scene(wall)
     for a, b in zip(states[:-1], states[1:], strict=True):
         assert planner.segment_free(a, b)
+    clearance = Evader(0.05)
+    clearance.add_cloud(wall, 0.0)
+    for source, q in zip(sources, states[1:], strict=True):  # a servo command keeps servo_clearance_m (5 cm)
+        assert source != "servo" or clearance.least_clearance(q) >= 0.05
     assert panda.fk(states[-1]).translation[1] < start[1] + 0.25  # still on this side of the wall
