@@ -64,7 +64,7 @@ from latent_planner_ros.nodes.grasp_target_input import GraspTargetInput
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
-from latent_planner_ros.nodes.qos import CLOUD_QOS
+from latent_planner_ros.nodes.qos import CLOUD_QOS, RELIABLE_CLOUD_QOS, Deduplicated
 from latent_planner_ros.nodes.rebuild_worker import RebuildWorker
 from latent_planner_ros.nodes.segment_chain import SegmentChain
 from latent_planner_ros.nodes.service_thread import ServiceThread
@@ -177,7 +177,9 @@ class PlannerNode(Node):
         self.grasp_target = GraspTargetInput()
         self.create_subscription(Marker, "grasp_target", self._on_grasp_target, 10)
         for cloud_topic in self.config.cloud_topics:
-            self.create_subscription(PointCloud2, cloud_topic, partial(self._on_cloud, cloud_topic), CLOUD_QOS)
+            on_cloud = Deduplicated(partial(self._on_cloud, cloud_topic))  # nodes/qos.py: both profiles, once
+            self.create_subscription(PointCloud2, cloud_topic, on_cloud.best_effort, CLOUD_QOS)
+            self.create_subscription(PointCloud2, cloud_topic, on_cloud.reliable, RELIABLE_CLOUD_QOS)
         self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, 10)
         if self.config.amp_ls.collision_backend == "learned":
             self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2)
