@@ -79,9 +79,13 @@ target = target_to_pose_stamped(goal.position, matrix_to_quat(goal.rotation))
 matched = spin_until(lambda: all(p.get_subscription_count() > 0 for p in (goals, joints, clouds)), 30.0)
 assert matched, "the planner's subscriptions were not matched"
 spin_until(lambda: False, 0.5)  # a few joint states and clouds reach it first
-goals.publish(target)
 out = {}
-out["started"] = spin_until(lambda: len(state["segments"]) >= 20, 60.0)
+end = time.monotonic() + 60.0
+while len(state["segments"]) < 20 and time.monotonic() < end:  # the goal again each second until the arm moves
+    goals.publish(target)
+    spin_until(lambda: len(state["segments"]) >= 20, 1.0)
+out["started"] = len(state["segments"]) >= 20
+assert out["started"], f"no commands within 60 s of the goal: {len(state['segments'])} segments"
 t_base = time.monotonic()  # the loop's own longest gap on this machine now, without a rebuild
 spin_until(lambda: False, 4.0)
 base = [t for t in state["segments"] if t >= t_base]
