@@ -112,7 +112,7 @@ def _raise_interrupt(signum, frame) -> None:
 def run(args: argparse.Namespace) -> int:
     from latent_planner_ros.evaluation.conveyor_suite import ConveyorSuite, StartupError, SuiteFailed, plan_suite
     from latent_planner_ros.evaluation.trial import format_summary, plot_tracking, tracking, trial_metrics
-    from latent_planner_ros.node_suite import SuiteError
+    from latent_planner_ros.processes.node_suite import SuiteError
 
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
@@ -130,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
     status = StatusLine(args.duration)
     suite = ConveyorSuite(plan, log_path=log_path, domain_id=args.domain_id)
     if args.view:
-        from latent_planner_ros.node_suite import suite_env
+        from latent_planner_ros.processes.node_suite import suite_env
         from latent_planner_ros.view.process import view_spec
 
         suite.supervisor.specs.append(view_spec(args.view_port, suite_env(args.domain_id, headless=True)))

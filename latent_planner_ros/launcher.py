@@ -38,9 +38,9 @@ import sys
 import threading
 from pathlib import Path
 
-from latent_planner_ros.node_suite import DEFAULT_NODES, SuiteError, parse_param, suite_env, suite_specs
+from latent_planner_ros.processes.node_suite import DEFAULT_NODES, SuiteError, parse_param, suite_env, suite_specs
+from latent_planner_ros.processes.supervisor import StartupError, Supervisor, describe_exit
 from latent_planner_ros.registry import NODES
-from latent_planner_ros.supervisor import StartupError, Supervisor, describe_exit
 
 DEFAULT_SCENARIO = "conveyor"
 STARTUP_TIMEOUT_S = 90.0
@@ -208,7 +208,7 @@ def build_suite(args: argparse.Namespace) -> Supervisor:
 
 def run_suite(suite: Supervisor, args: argparse.Namespace, stop: threading.Event, force: threading.Event) -> int:
     """Start, wait until up, watch, stop. Returns the exit code (see the module docstring)."""
-    from latent_planner_ros.nodes.graph_probe import GraphProbe
+    from latent_planner_ros.evaluation.probes.graph_probe import GraphProbe
 
     names = [s.name for s in suite.specs]
     domain = args.domain_id if args.domain_id is not None else os.environ.get("ROS_DOMAIN_ID", "0")

@@ -29,7 +29,7 @@ BENCH = {
     "planner": "latent_planner_ros.bench.planner:main",
     "reach": "latent_planner_ros.bench.reach:main",
     "robot": "latent_planner_ros.bench.robot:main",
-    "sim": "sim_bridge.bench:main",
+    "sim": "latent_planner_ros.bench.sim:main",
     "soak": "latent_planner_ros.bench.soak:main",
     "table": "latent_planner_ros.bench.table:main",
     "vae": "latent_planner_ros.bench.vae:main",

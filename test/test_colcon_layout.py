@@ -121,7 +121,7 @@ from latent_planner_ros.bench.scenarios import DEFAULT_SET
 from latent_planner_ros.models.collision_io import PLANNER_COLLISION, shipped_collision_path
 from latent_planner_ros.models.cylinder_classifier import shipped_classifier_path
 from latent_planner_ros.models.vae_io import load_vae, shipped_vae_path
-from latent_planner_ros.node_suite import find_params_file
+from latent_planner_ros.processes.node_suite import find_params_file
 from sim_bridge.scenario_files import find_scenario_file
 
 vae, _ = load_vae()

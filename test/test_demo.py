@@ -13,7 +13,7 @@ import psutil
 import pytest
 
 from latent_planner_ros.demo import parse_args
-from latent_planner_ros.node_suite import LAUNCH_ENV
+from latent_planner_ros.processes.node_suite import LAUNCH_ENV
 
 REPO = Path(__file__).resolve().parents[1]
 

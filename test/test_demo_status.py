@@ -5,7 +5,7 @@ import io
 import numpy as np
 
 from latent_planner_ros.demo import StatusLine
-from latent_planner_ros.nodes.trial_monitor import Live
+from latent_planner_ros.evaluation.probes.trial_monitor import Live
 from latent_planner_ros.robot.limits import Q_READY
 
 

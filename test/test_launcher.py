@@ -21,7 +21,7 @@ import psutil
 import pytest
 
 from latent_planner_ros.launcher import main
-from latent_planner_ros.node_suite import LAUNCH_ENV, SuiteError, find_params_file, node_argv, parse_param
+from latent_planner_ros.processes.node_suite import LAUNCH_ENV, SuiteError, find_params_file, node_argv, parse_param
 from latent_planner_ros.registry import NODES
 
 REPO = Path(__file__).resolve().parents[1]

@@ -25,7 +25,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from latent_planner_ros.bench.workers import exit_with_parent
+from latent_planner_ros.batch.workers import exit_with_parent
 
 
 @dataclass(frozen=True)

@@ -195,7 +195,7 @@ def main(argv: list[str]) -> int:
 
     from latent_planner_ros.evaluation.conveyor_suite import ConveyorSuite, StartupError, SuiteFailed, plan_suite
     from latent_planner_ros.evaluation.trial import SuccessRule, tick_samples, tracking, trial_metrics
-    from latent_planner_ros.node_suite import SuiteError
+    from latent_planner_ros.processes.node_suite import SuiteError
 
     try:
         plan = plan_suite(

@@ -2,7 +2,7 @@
 
     python -m latent_planner_ros bench faults --out DIR [--groups inputs,scene,sim,startup] [--domain-id N]
 
-Runs the cases of ``latent_planner_ros.evaluation.fault_cases`` (the same code as ``test/faults``), one suite
+Runs the cases of ``latent_planner_ros.bench.fault_cases`` (the same code as ``test/faults``), one suite
 start-up per group, and writes ``DIR/faults.json``: ``cases`` (number run), ``survived`` (number survived),
 ``failed`` (names of the cases not survived), ``invariant_violations`` (commands that broke the safety
 invariant; must be 0), ``load`` (the planner's tick p50/p99 [ms] from its status ``tick_ms``, commands per
@@ -123,9 +123,9 @@ def main(argv: list[str]) -> int:
     if unknown or not groups:
         p.error(f"--groups: choose from {', '.join(GROUP_NAMES)}")
 
-    from latent_planner_ros.evaluation.fault_cases import main_print, run_group, summarise
+    from latent_planner_ros.bench.fault_cases import main_print, run_group, summarise
     from latent_planner_ros.evaluation.safety import SafetyConfig
-    from latent_planner_ros.supervisor import StartupError
+    from latent_planner_ros.processes.supervisor import StartupError
 
     domain = args.domain_id if args.domain_id is not None else random.SystemRandom().randint(1, 101)
     log_path = args.out / "faults_nodes.log"

@@ -3,9 +3,9 @@
     python -m latent_planner_ros bench fuzz --examples 10000 --out DIR [--node-examples N] [--only NAMES] [--seed S]
 
 Feeds `--examples` generated inputs (hypothesis) to each message adapter that converts an incoming message
-(latent_planner_ros/evaluation/fuzz_adapters.py) and `--node-examples` (default: the same) to each subscriber,
+(latent_planner_ros/bench/fuzz_adapters.py) and `--node-examples` (default: the same) to each subscriber,
 service and parameter callback of the planner, ompl_planner, scene_encoder and sim nodes, built in-process
-(evaluation/fuzz_nodes.py; plans cut at 0.5 s). Nothing stops at a finding: every input runs, and each escaped
+(bench/fuzz_nodes.py; plans cut at 0.5 s). Nothing stops at a finding: every input runs, and each escaped
 exception (any exception leaving a callback, or any but AdapterError leaving an adapter) and each invariant
 violation (a refusal without a reason, a bad accepted result, a command outside the joint limits) is counted and
 its first input kept. After a node's boundaries its parameters are set back and valid inputs must still be handled.
@@ -28,7 +28,7 @@ def run_boundary(boundary, examples: int, seed: int) -> dict:
     from hypothesis import HealthCheck, Phase, given, settings
     from hypothesis import seed as hypothesis_seed
 
-    from latent_planner_ros.evaluation.fuzz_adapters import InvariantError
+    from latent_planner_ros.bench.fuzz_adapters import InvariantError
 
     counts: Counter = Counter()
     findings: dict[str, dict] = {}
@@ -135,7 +135,7 @@ def main(argv: list[str]) -> int:
     def wanted(name: str) -> bool:
         return not only or name.startswith(only)
 
-    from latent_planner_ros.evaluation.fuzz_adapters import ADAPTER_BOUNDARIES
+    from latent_planner_ros.bench.fuzz_adapters import ADAPTER_BOUNDARIES
 
     boundaries: dict[str, dict] = {}
     valid_after: dict[str, str] = {}
@@ -154,7 +154,7 @@ def main(argv: list[str]) -> int:
     if nodes_wanted:
         import rclpy
 
-        from latent_planner_ros.evaluation.fuzz_nodes import build
+        from latent_planner_ros.bench.fuzz_nodes import build
 
         rclpy.init()
         try:
@@ -194,6 +194,6 @@ def main(argv: list[str]) -> int:
 
 
 def _node_names() -> tuple[str, ...]:
-    from latent_planner_ros.evaluation.fuzz_nodes import NODE_BOUNDARIES
+    from latent_planner_ros.bench.fuzz_nodes import NODE_BOUNDARIES
 
     return tuple(NODE_BOUNDARIES)

@@ -124,11 +124,11 @@ def main(argv: list[str]) -> int:
     os.environ.setdefault("MUJOCO_GL", "osmesa")
 
     from latent_planner_ros.evaluation.conveyor_suite import ConveyorSuite, StartupError, SuiteFailed
+    from latent_planner_ros.evaluation.probes.reach_probe import ReachSession
     from latent_planner_ros.evaluation.reach import ORI_TOL_DEG, POS_TOL_M, summarise
     from latent_planner_ros.evaluation.reach_goals import choose_goal
     from latent_planner_ros.evaluation.reach_suite import PLAN_TOLERANCE_M, PLANNERS, reach_plan, run_goal
-    from latent_planner_ros.node_suite import SuiteError
-    from latent_planner_ros.nodes.reach_probe import ReachSession
+    from latent_planner_ros.processes.node_suite import SuiteError
 
     try:
         plan = reach_plan(args.backend)

@@ -5,8 +5,8 @@
 
 The suite is the conveyor bench's (sim, scene_encoder for the learned backend, planner, each with its
 ``config/<node>.yaml`` and ``use_sim_time``), with the planner's ``joint_states`` and the planner's and encoder's
-``camera/points`` remapped onto the relays of the soak probe (nodes/soak_probe.py), which can pause them. The
-workload (evaluation/soak_workload.py, seeded by ``--seed``) alternates the tabletop and conveyor scenarios
+``camera/points`` remapped onto the relays of the soak probe (evaluation/probes/soak_probe.py), which can pause
+them. The workload (evaluation/soak_workload.py, seeded by ``--seed``) alternates the tabletop and conveyor scenarios
 (moving target and obstacle), sends goals every 2-10 s (reachable, unreachable, inside obstacles, the conveyor's
 moving target, grasp goals), drops the camera out for 0.5-3 s, pauses joint states, changes planner parameters
 (valid values and refused ones) and requests one-shot plans while the loop tracks. The safety monitor checks every
@@ -48,7 +48,7 @@ def plan_soak(backend: str | None, seed: int, real_time_factor: float):
     """The conveyor bench's SuitePlan turned into the soak's: tabletop first, the planner disabled until the first
     scene is up, its joint states and clouds (and the encoder's) from the probe's relays, goals from the probe."""
     from latent_planner_ros.evaluation.conveyor_suite import plan_suite
-    from latent_planner_ros.nodes.soak_probe import CLOUD_RELAY, JOINTS_RELAY
+    from latent_planner_ros.evaluation.probes.soak_probe import CLOUD_RELAY, JOINTS_RELAY
 
     plan = plan_suite(backend, seed=seed, real_time_factor=real_time_factor, status_rate_hz=10.0)
     params = {n: list(v) for n, v in plan.params.items()}
@@ -133,11 +133,11 @@ def _sample_resources(supervisor, t: float) -> list[tuple]:
 def run_soak(args, out: Path, stop: threading.Event | None = None) -> tuple[SoakLog, dict]:
     """Start the suite, run the workload for args.minutes of simulated time (or until `stop` is set), stop the
     suite; (the log, run info)."""
+    from latent_planner_ros.evaluation.probes.graph_probe import GraphProbe
+    from latent_planner_ros.evaluation.probes.soak_probe import SoakSession
     from latent_planner_ros.evaluation.soak_workload import counts, generate
-    from latent_planner_ros.node_suite import suite_env, suite_specs
-    from latent_planner_ros.nodes.graph_probe import GraphProbe
-    from latent_planner_ros.nodes.soak_probe import SoakSession
-    from latent_planner_ros.supervisor import Supervisor, describe_exit
+    from latent_planner_ros.processes.node_suite import suite_env, suite_specs
+    from latent_planner_ros.processes.supervisor import Supervisor, describe_exit
 
     plan = plan_soak(args.backend, args.seed, args.real_time_factor)
     for note in plan.notes:
@@ -254,8 +254,8 @@ def main(argv: list[str]) -> int:
         args.domain_id = random.SystemRandom().randint(1, 101)
 
     from latent_planner_ros.evaluation.soak_report import figures, markdown, summarise
-    from latent_planner_ros.node_suite import SuiteError
-    from latent_planner_ros.supervisor import StartupError
+    from latent_planner_ros.processes.node_suite import SuiteError
+    from latent_planner_ros.processes.supervisor import StartupError
 
     args.out.mkdir(parents=True, exist_ok=True)
     stop = threading.Event()

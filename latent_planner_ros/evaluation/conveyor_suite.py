@@ -25,8 +25,8 @@ from typing import TextIO
 import yaml
 
 from latent_planner_ros.evaluation.trial import TrialLog
-from latent_planner_ros.node_suite import SuiteError, find_params_file, suite_env, suite_specs
-from latent_planner_ros.supervisor import StartupError, Supervisor, describe_exit
+from latent_planner_ros.processes.node_suite import SuiteError, find_params_file, suite_env, suite_specs
+from latent_planner_ros.processes.supervisor import StartupError, Supervisor, describe_exit
 
 SCENARIO = "conveyor"
 STARTUP_TIMEOUT_S = 120.0
@@ -193,8 +193,8 @@ class ConveyorSuite:
         Raises:
             StartupError: naming the node that died or was not up in time.
         """
-        from latent_planner_ros.nodes.graph_probe import GraphProbe
-        from latent_planner_ros.nodes.trial_monitor import MonitorSession
+        from latent_planner_ros.evaluation.probes.graph_probe import GraphProbe
+        from latent_planner_ros.evaluation.probes.trial_monitor import MonitorSession
 
         t0 = time.monotonic()
         self.supervisor.start()

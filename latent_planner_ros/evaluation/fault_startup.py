@@ -55,7 +55,7 @@ def startup_cases(tmp: Path) -> dict[str, tuple[str, list[str], str]]:
 
 def _run_startup(node: str, params: list[str], env: dict, timeout_s: float = 90.0) -> tuple[int | None, str, float]:
     """(exit code or None if it kept running, its output, wall time [s]) of one node start."""
-    from latent_planner_ros.node_suite import find_params_file, node_argv
+    from latent_planner_ros.processes.node_suite import find_params_file, node_argv
 
     argv = node_argv(node, params, find_params_file(node), use_sim_time=False)
     t0 = time.monotonic()
@@ -69,7 +69,7 @@ def _run_startup(node: str, params: list[str], env: dict, timeout_s: float = 90.
 
 def run_startup_group(domain_id: int | None = None, workers: int = 2) -> list[CaseResult]:
     """Start each misconfigured node alone; it must exit non-zero with a clear 'cannot start: <reason>'."""
-    from latent_planner_ros.node_suite import suite_env
+    from latent_planner_ros.processes.node_suite import suite_env
 
     env = suite_env(domain_id, headless=True)
     results = []

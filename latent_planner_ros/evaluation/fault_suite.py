@@ -1,7 +1,7 @@
 """The node suite of the fault-injection cases: which processes, started, killed and restarted one by one.
 
 Without the sim (``with_sim=False``) the suite is the planner (and the scene_encoder for the learned
-backend) on wall-clock time, and the probe (``nodes.fault_probe``) plays the arm and the camera, so faulty
+backend) on wall-clock time, and the probe (``evaluation.probes.fault_probe``) plays the arm and the camera, so faulty
 ``joint_states`` and ``camera/points`` come from one publisher, deterministically. With the sim the nodes
 run on simulated time as in the launcher. Each node runs under its own :class:`Supervisor`, so one can be
 killed (SIGKILL to its process group) and started again while the others keep running.
@@ -23,8 +23,8 @@ from pathlib import Path
 from typing import TextIO
 
 from latent_planner_ros.evaluation.conveyor_suite import collision_weights, configured_planner
-from latent_planner_ros.node_suite import SuiteError, suite_env, suite_specs
-from latent_planner_ros.supervisor import StartupError, Supervisor, describe_exit
+from latent_planner_ros.processes.node_suite import SuiteError, suite_env, suite_specs
+from latent_planner_ros.processes.supervisor import StartupError, Supervisor, describe_exit
 
 STARTUP_TIMEOUT_S = 120.0
 """[s] longest wait for a node's first status (the planner loads torch and its checkpoints)."""
@@ -122,7 +122,7 @@ class FaultSuite:
 
     def start(self) -> float:
         """Start the probe and every node; returns the start-up time [s]. Raises StartupError."""
-        from latent_planner_ros.nodes.fault_probe import FaultSession
+        from latent_planner_ros.evaluation.probes.fault_probe import FaultSession
 
         t0 = time.monotonic()
         self.probe = FaultSession(self.domain_id, fake_arm=not self.plan.with_sim)

@@ -21,7 +21,7 @@ from latent_planner_ros.evaluation.conveyor_suite import (
 )
 from latent_planner_ros.evaluation.reach import reach_metrics
 from latent_planner_ros.evaluation.reach_goals import ReachGoal
-from latent_planner_ros.node_suite import SuiteError
+from latent_planner_ros.processes.node_suite import SuiteError
 
 PLANNERS = ("planner", "ompl_planner")
 """The planner nodes compared, both behind nav_msgs/GetPlan."""

@@ -1,7 +1,7 @@
 """Memory, open files and threads of a process group, read from /proc (Linux). No ROS.
 
-A node of the suite runs in a process group of its own (supervisor.py), whose id is the node's pid; anything it
-starts stays in that group, so the group's sums are the node's footprint.
+A node of the suite runs in a process group of its own (processes/supervisor.py), whose id is the node's pid;
+anything it starts stays in that group, so the group's sums are the node's footprint.
 """
 
 from __future__ import annotations

@@ -153,7 +153,7 @@ class RecorderSession:
     """
 
     def __init__(self, path, domain_id: int | None = None, topics: list[str] | None = None, overwrite: bool = False):
-        from latent_planner_ros.nodes.probe_session import ProbeSession
+        from latent_planner_ros.evaluation.probes.probe_session import ProbeSession
 
         self.bag = BagWriter(path, overwrite=overwrite)
         self._session = ProbeSession(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Mapping
 
-from latent_planner_ros.supervisor import ProcessSpec
+from latent_planner_ros.processes.supervisor import ProcessSpec
 
 DEFAULT_PORT = 8080
 """The view's default HTTP port on localhost."""

@@ -6,7 +6,7 @@ import pytest
 
 from latent_planner_ros.evaluation import conveyor_suite
 from latent_planner_ros.evaluation.conveyor_suite import plan_suite
-from latent_planner_ros.node_suite import SuiteError, node_argv, suite_specs
+from latent_planner_ros.processes.node_suite import SuiteError, node_argv, suite_specs
 
 
 def _argv(plan, node: str) -> list[str]:

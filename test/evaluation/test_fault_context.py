@@ -3,7 +3,7 @@
 import time
 
 from latent_planner_ros.evaluation.fault_context import Ctx
-from latent_planner_ros.nodes.fault_probe import Status
+from latent_planner_ros.evaluation.probes.fault_probe import Status
 
 
 class FakeProbe:

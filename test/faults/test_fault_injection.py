@@ -1,5 +1,5 @@
 """Fault injection through the ROS graph: real nodes in subprocesses, every case of
-``latent_planner_ros.evaluation.fault_cases`` (shared with ``bench faults``) must survive: no crash, the safety
+``latent_planner_ros.bench.fault_cases`` (shared with ``bench faults``) must survive: no crash, the safety
 invariant held for every joint_command, the reason on status/logs, normal operation after the fault.
 
 One test per group, so one suite start-up serves many cases.
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from latent_planner_ros.evaluation.fault_cases import group_cases, run_group, summarise
+from latent_planner_ros.bench.fault_cases import group_cases, run_group, summarise
 
 
 def _report(results, info) -> str:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 from hypothesis import given
 
-from latent_planner_ros.evaluation.fuzz_adapters import ADAPTER_BOUNDARIES
+from latent_planner_ros.bench.fuzz_adapters import ADAPTER_BOUNDARIES
 
 
 @pytest.mark.parametrize("boundary", ADAPTER_BOUNDARIES, ids=lambda b: b.name)

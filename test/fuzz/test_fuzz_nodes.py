@@ -8,7 +8,7 @@ import pytest
 import rclpy
 from hypothesis import given
 
-from latent_planner_ros.evaluation.fuzz_nodes import NODE_BOUNDARIES, build
+from latent_planner_ros.bench.fuzz_nodes import NODE_BOUNDARIES, build
 from test.fuzz.conftest import examples
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]

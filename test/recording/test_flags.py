@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from latent_planner_ros.launcher import build_suite, parse_args
-from latent_planner_ros.node_suite import SuiteError
+from latent_planner_ros.processes.node_suite import SuiteError
 
 
 def test_launch_view_adds_the_view_process_on_its_port():

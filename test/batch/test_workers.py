@@ -10,7 +10,7 @@ from pathlib import Path
 PARENT = """
 import os, sys, time, multiprocessing as mp
 from concurrent.futures import ProcessPoolExecutor
-from latent_planner_ros.bench.workers import exit_with_parent
+from latent_planner_ros.batch.workers import exit_with_parent
 init = exit_with_parent if sys.argv[1] == "watch" else None
 ex = ProcessPoolExecutor(1, mp.get_context("spawn"), initializer=init)
 print(ex.submit(os.getpid).result(), flush=True)

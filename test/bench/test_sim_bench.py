@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from sim_bridge.bench import main
+from latent_planner_ros.bench.sim import main
 
 
 def test_bench_sim_writes_report(tmp_path):

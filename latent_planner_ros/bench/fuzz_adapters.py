@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from hypothesis import strategies as st
 
-from latent_planner_ros.evaluation import fuzz_strategies as fs
+from latent_planner_ros.bench import fuzz_strategies as fs
 from latent_planner_ros.nodes.frames_config import FramesConfig
 from msg_adapters import (
     AdapterError,

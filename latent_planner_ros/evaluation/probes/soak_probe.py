@@ -31,9 +31,9 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Bool
 from std_srvs.srv import SetBool, Trigger
 
+from latent_planner_ros.evaluation.probes.probe_session import ProbeSession
 from latent_planner_ros.evaluation.safety import SafetyMonitor
 from latent_planner_ros.evaluation.soak_report import GoalSent, SoakLog
-from latent_planner_ros.nodes.probe_session import ProbeSession
 from msg_adapters import AdapterError, joint_state_to_q, target_to_pose_stamped
 from msg_adapters.plan_request import format_stamp
 

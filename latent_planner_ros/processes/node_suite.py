@@ -16,9 +16,9 @@ import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from latent_planner_ros.processes.supervisor import ProcessSpec
 from latent_planner_ros.registry import NODES
 from latent_planner_ros.resources import resource_dirs
-from latent_planner_ros.supervisor import ProcessSpec
 
 PACKAGE = "latent_planner_ros"
 

@@ -27,8 +27,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 from trajectory_msgs.msg import JointTrajectory
 
+from latent_planner_ros.evaluation.probes.probe_session import ProbeSession
 from latent_planner_ros.evaluation.reach import ExecutionLog, PlanCall
-from latent_planner_ros.nodes.probe_session import ProbeSession
 from latent_planner_ros.planning.trajectory_stream import TrajectoryStreamer
 from msg_adapters import (
     AdapterError,

@@ -52,7 +52,7 @@ from latent_planner_ros.evaluation.fault_suite import FaultSuite, plan_fault_sui
 from latent_planner_ros.evaluation.stats import percentile
 from latent_planner_ros.nodes.planner_config import PlannerNodeConfig
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig
-from latent_planner_ros.supervisor import StartupError
+from latent_planner_ros.processes.supervisor import StartupError
 
 LOAD_POINTS, LOAD_RATE_HZ, LOAD_S = 100_000, 30.0, 10.0
 """The load case: clouds of this many points at this rate [Hz] for this long [s] (after as long at rest)."""

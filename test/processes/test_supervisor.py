@@ -12,7 +12,7 @@ import time
 import psutil
 import pytest
 
-from latent_planner_ros.supervisor import ProcessSpec, StartupError, Supervisor, describe_exit
+from latent_planner_ros.processes.supervisor import ProcessSpec, StartupError, Supervisor, describe_exit
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -153,7 +153,7 @@ def test_children_stop_on_sigint_even_when_the_supervisor_ignores_it():
     code = (
         "import signal, sys\n"
         "signal.signal(signal.SIGINT, signal.SIG_IGN)\n"
-        "from latent_planner_ros.supervisor import ProcessSpec, Supervisor\n"
+        "from latent_planner_ros.processes.supervisor import ProcessSpec, Supervisor\n"
         f"suite = Supervisor([ProcessSpec('long', (sys.executable, '-u', '-c', {SLEEPER!r}))])\n"
         "suite.start()\n"
         "assert suite.wait_ready(lambda: {'long'} if suite.tail('long') else set(), timeout_s=10.0)\n"

@@ -20,9 +20,9 @@ from rclpy.publisher import Publisher
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
-from latent_planner_ros.evaluation import fuzz_strategies as fs
+from latent_planner_ros.bench import fuzz_strategies as fs
+from latent_planner_ros.bench.fuzz_adapters import ACCEPTED, REFUSED, Boundary, expect, refusal
 from latent_planner_ros.evaluation.fault_inputs import box_cloud, goal_pose
-from latent_planner_ros.evaluation.fuzz_adapters import ACCEPTED, REFUSED, Boundary, expect, refusal
 from latent_planner_ros.perception.cloud_fusion import CloudRefused
 from latent_planner_ros.robot.limits import JOINT_NAMES, Q_MAX, Q_MIN, Q_READY
 from msg_adapters import (

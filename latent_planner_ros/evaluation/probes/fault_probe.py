@@ -34,8 +34,8 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState, PointCloud2
 from std_srvs.srv import SetBool, Trigger
 
+from latent_planner_ros.evaluation.probes.probe_session import ProbeSession
 from latent_planner_ros.evaluation.safety import SafetyConfig, SafetyMonitor, Violation, command_positions
-from latent_planner_ros.nodes.probe_session import ProbeSession
 from latent_planner_ros.robot.limits import Q_READY
 from msg_adapters import AdapterError, joint_state_to_q, q_to_joint_state
 from sim_bridge.command import JointCommand

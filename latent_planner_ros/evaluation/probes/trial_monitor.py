@@ -31,8 +31,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 from std_srvs.srv import SetBool, Trigger
 
+from latent_planner_ros.evaluation.probes.probe_session import ProbeSession
 from latent_planner_ros.evaluation.trial import TrialLog
-from latent_planner_ros.nodes.probe_session import ProbeSession
 from msg_adapters import AdapterError, joint_state_to_q, pose_stamped_to_target
 
 JOINT_PERIOD_S = 0.01
