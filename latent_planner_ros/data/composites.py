@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from latent_planner_ros.data.obstacles import Box, Capsule, Cylinder, Obstacle
+from latent_planner_ros.data.obstacles import Box, Capsule, Cylinder, Obstacle, quat_xyzw, vec3
 
 _IDENTITY = (0.0, 0.0, 0.0, 1.0)
 
@@ -63,8 +63,8 @@ def ring(rng: np.random.Generator, s: float = 1.0) -> list[Obstacle]:
         rot = tilt * Rotation.from_euler("ZX", [a + np.pi / n, -np.pi / 2])
         parts.append(
             Capsule(
-                tuple(float(x) for x in tilt.apply(mid)),
-                tuple(float(x) for x in rot.as_quat()),
+                vec3(tilt.apply(mid)),
+                quat_xyzw(rot.as_quat()),
                 float(small),
                 float(half),
             )

@@ -103,7 +103,7 @@ def write_shard(directory: Path, index: int, arrays: dict[str, np.ndarray], meta
     stem = shard_stem(directory, index)
     stem.parent.mkdir(parents=True, exist_ok=True)
     tmp = stem.with_suffix(".tmp.npz")
-    np.savez_compressed(tmp, **arrays)
+    np.savez_compressed(tmp, **arrays)  # type: ignore[arg-type]  # mypy also matches **arrays to allow_pickle
     stem.with_suffix(".json").write_text(json.dumps(meta))
     os.replace(tmp, stem.with_suffix(".npz"))  # the npz appears last: a shard with an npz is complete
     return stem.with_suffix(".npz")
@@ -178,7 +178,7 @@ class CollisionData:
     @property
     def labels(self) -> np.ndarray:
         """(M,) bool: in collision with any link."""
-        return self.link_labels.any(1)
+        return np.asarray(self.link_labels.any(1))
 
     @classmethod
     def empty(cls, n_links: int = len(LABEL_LINKS)) -> CollisionData:

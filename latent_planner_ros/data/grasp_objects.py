@@ -14,7 +14,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from latent_planner_ros.data.obstacle_geometry import coal_geometry
-from latent_planner_ros.data.obstacles import Box, Cylinder, Obstacle
+from latent_planner_ros.data.obstacles import Box, Cylinder, Mesh, Obstacle, quat_xyzw
 
 WIDTH = (0.02, 0.06)
 """[m] range of the narrow side (the fingers open to 8 cm)"""
@@ -41,6 +41,8 @@ class GraspObject:
 
     @property
     def centre(self) -> np.ndarray:
+        if isinstance(self.obstacle, Mesh):
+            raise TypeError("a grasp object is a box or a cylinder, not a mesh")
         return np.asarray(self.obstacle.position, dtype=float)
 
 
@@ -86,7 +88,7 @@ def draw_object(
         # box axes: x along the approach's horizontal direction (depth), y across (width)
         heading = math.atan2(across[1], across[0]) - math.pi / 2
         quat = Rotation.from_euler("z", heading).as_quat()
-        obstacle = Box(centre, tuple(float(v) for v in quat), (depth / 2, width / 2, height / 2))
+        obstacle = Box(centre, quat_xyzw(quat), (depth / 2, width / 2, height / 2))
     x_sign = 1.0 if rng.random() < 0.5 else -1.0
     rot = hand_rotation(z, x_sign * across)
     return GraspObject(obstacle, rot)

@@ -15,6 +15,7 @@ length of the axis segment; a capsule's total length is 2 * (half_length + radiu
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,6 +24,21 @@ import numpy as np
 from latent_planner_ros.robot.rotations import matrix_to_quat, quat_to_matrix
 
 _IDENTITY_Q = (0.0, 0.0, 0.0, 1.0)
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+
+
+def vec3(v: Iterable[Any]) -> Vec3:
+    """The three numbers of v (an array or sequence of 3) as floats; ValueError for another count."""
+    x, y, z = (float(c) for c in v)
+    return x, y, z
+
+
+def quat_xyzw(v: Iterable[Any]) -> Quat:
+    """The four numbers of a quaternion v (x, y, z, w) as floats; ValueError for another count."""
+    x, y, z, w = (float(c) for c in v)
+    return x, y, z, w
 
 
 def _vec(v: Any, n: int, name: str) -> tuple[float, ...]:
@@ -41,16 +57,16 @@ def _positive(v: Any, name: str) -> float:
 
 @dataclass(frozen=True)
 class Box:
-    position: tuple[float, float, float]
-    quaternion_xyzw: tuple[float, float, float, float]
-    half_extents: tuple[float, float, float]
+    position: Vec3
+    quaternion_xyzw: Quat
+    half_extents: Vec3
     """half side lengths along the local x, y, z axes [m]"""
 
 
 @dataclass(frozen=True)
 class Cylinder:
-    position: tuple[float, float, float]
-    quaternion_xyzw: tuple[float, float, float, float]
+    position: Vec3
+    quaternion_xyzw: Quat
     radius: float
     half_length: float
     """half the length along the local z axis [m]"""
@@ -58,14 +74,14 @@ class Cylinder:
 
 @dataclass(frozen=True)
 class Sphere:
-    position: tuple[float, float, float]
+    position: Vec3
     radius: float
 
 
 @dataclass(frozen=True)
 class Capsule:
-    position: tuple[float, float, float]
-    quaternion_xyzw: tuple[float, float, float, float]
+    position: Vec3
+    quaternion_xyzw: Quat
     radius: float
     half_length: float
     """half the length of the axis segment (local z) [m], without the hemispherical caps"""
@@ -157,17 +173,17 @@ def obstacle_from_dict(d: dict) -> Obstacle:
             if f.ndim != 2 or f.shape[1] != 3 or len(f) < 4 or f.min() < 0 or f.max() >= len(v):
                 raise ValueError("mesh 'faces' must be a list of at least 4 [i, j, k] vertex indices")
             return Mesh(vertices=v, faces=f)
-        pos = _vec(d["position"], 3, "position")
+        pos = vec3(_vec(d["position"], 3, "position"))
         if kind == "sphere":
             return Sphere(pos, _positive(d["radius"], "radius"))
-        quat = _vec(d.get("quaternion_xyzw", _IDENTITY_Q), 4, "quaternion_xyzw")
+        quat = quat_xyzw(_vec(d.get("quaternion_xyzw", _IDENTITY_Q), 4, "quaternion_xyzw"))
         norm = float(np.linalg.norm(quat))
         if norm < 1e-9:
             raise ValueError("quaternion_xyzw has zero norm")
         if abs(norm - 1.0) > 1e-9:
-            quat = tuple(float(x) / norm for x in quat)
+            quat = quat_xyzw(x / norm for x in quat)
         if kind == "box":
-            he = _vec(d["half_extents"], 3, "half_extents")
+            he = vec3(_vec(d["half_extents"], 3, "half_extents"))
             if min(he) <= 0:
                 raise ValueError(f"half_extents must be positive, got {he}")
             return Box(pos, quat, he)
@@ -185,10 +201,10 @@ def transformed(obstacle: Obstacle, rotation: np.ndarray, translation: np.ndarra
     tr = np.asarray(translation, dtype=float)
     if isinstance(obstacle, Mesh):
         return Mesh(vertices=obstacle.vertices @ rot.T + tr, faces=obstacle.faces)
-    pos = tuple(float(x) for x in rot @ np.asarray(obstacle.position) + tr)
+    pos = vec3(rot @ np.asarray(obstacle.position) + tr)
     if isinstance(obstacle, Sphere):
         return Sphere(pos, obstacle.radius)
-    quat = tuple(float(x) for x in matrix_to_quat(rot @ quat_to_matrix(np.asarray(obstacle.quaternion_xyzw))))
+    quat = quat_xyzw(matrix_to_quat(rot @ quat_to_matrix(np.asarray(obstacle.quaternion_xyzw))))
     if isinstance(obstacle, Box):
         return Box(pos, quat, obstacle.half_extents)
     return type(obstacle)(pos, quat, obstacle.radius, obstacle.half_length)

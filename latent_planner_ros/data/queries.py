@@ -62,7 +62,7 @@ def proxy_distance(
         pose = poses[n_idx, l_idx]  # (K, 4, 4)
         pts = np.einsum("kij,ksj->ksi", pose[:, :3, :3], links.surface_points[l_idx]) + pose[:, None, :3, 3]
         d, _ = tree.query(pts.reshape(-1, 3), distance_upper_bound=cap)
-        d_min = d.reshape(len(n_idx), -1).min(1)
+        d_min = np.asarray(d).reshape(len(n_idx), -1).min(1)
         starts = np.flatnonzero(np.r_[True, n_idx[1:] != n_idx[:-1]])
         out[n_idx[starts]] = np.minimum(np.minimum.reduceat(d_min, starts), cap)
     return out

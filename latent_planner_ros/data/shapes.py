@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull
 
-from latent_planner_ros.data.obstacles import Box, Capsule, Cylinder, Mesh, Obstacle, Sphere
+from latent_planner_ros.data.obstacles import Box, Capsule, Cylinder, Mesh, Obstacle, Sphere, vec3
 
 _ORIGIN = (0.0, 0.0, 0.0)
 _IDENTITY = (0.0, 0.0, 0.0, 1.0)
@@ -32,7 +32,7 @@ def box(rng: np.random.Generator, s: float = 1.0) -> list[Obstacle]:
     if rng.random() < THIN_PROB:
         thin = rng.choice(3, size=int(rng.integers(1, 3)), replace=False)
         he[thin] = rng.uniform(0.006, 0.02, len(thin))
-    return [Box(_ORIGIN, _IDENTITY, tuple(float(x) for x in s * he))]
+    return [Box(_ORIGIN, _IDENTITY, vec3(s * he))]
 
 
 def cylinder(rng: np.random.Generator, s: float = 1.0) -> list[Obstacle]:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from latent_planner_ros.data.obstacles import Box, Cylinder, Obstacle
+from latent_planner_ros.data.obstacles import Box, Cylinder, Obstacle, quat_xyzw, vec3
 from latent_planner_ros.data.workcell_furniture import MAX_HEIGHT, slab
 from latent_planner_ros.data.workcell_regions import Furniture, Region, Surface, box_region, surface
 
@@ -23,8 +23,8 @@ def bar(a, b, radius: float, square: bool) -> Obstacle:
     d = b - a
     length = float(np.linalg.norm(d))
     rot, _ = Rotation.align_vectors([d / length], [[0.0, 0.0, 1.0]])
-    q = tuple(float(x) for x in rot.as_quat())
-    c = tuple(float(x) for x in (a + b) / 2)
+    q = quat_xyzw(rot.as_quat())
+    c = vec3((a + b) / 2)
     if square:
         return Box(c, q, (radius, radius, length / 2))
     return Cylinder(c, q, radius, length / 2)
@@ -137,7 +137,7 @@ def wall(rng: np.random.Generator, heldout: bool = False) -> Furniture:
         h, r = float(heights[k]), float(radii[k])
         if heldout:
             q = Rotation.from_euler("z", rng.uniform(0, np.pi / 2)).as_quat()
-            parts.append(Box((x, float(y), h / 2), tuple(float(v) for v in q), (r, r, h / 2)))
+            parts.append(Box((x, float(y), h / 2), quat_xyzw(q), (r, r, h / 2)))
         else:
             parts.append(Cylinder((x, float(y), h / 2), (0.0, 0.0, 0.0, 1.0), r, h / 2))
         surfaces.append(surface((x - r * np.sqrt(2), y, h / 2), _FRONT, v=(0.0, 0.0, 0.4 * h), kind="bar"))

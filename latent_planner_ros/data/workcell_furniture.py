@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from latent_planner_ros.data.obstacles import Box, Cylinder, Obstacle
+from latent_planner_ros.data.obstacles import Box, Cylinder, Obstacle, vec3
 from latent_planner_ros.data.workcell_regions import Furniture, Region, Surface, box_region, surface
 
 MAX_HEIGHT = 1.25
@@ -26,7 +26,7 @@ def slab(lo, hi) -> Box:
     """An axis-aligned box between the corners lo (3,) and hi (3,) [m]."""
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
     c, h = (lo + hi) / 2, (hi - lo) / 2
-    return Box(tuple(float(x) for x in c), _IDENTITY, tuple(float(x) for x in h))
+    return Box(vec3(c), _IDENTITY, vec3(h))
 
 
 def _thicknesses(rng: np.random.Generator, heldout: bool) -> tuple[float, float]:

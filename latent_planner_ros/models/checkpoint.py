@@ -9,10 +9,13 @@ from __future__ import annotations
 import json
 from collections.abc import Callable
 from pathlib import Path
+from typing import TypeVar
 
 import torch
 from safetensors import SafetensorError
 from safetensors.torch import load_file, save_file
+
+ModelT = TypeVar("ModelT", bound=torch.nn.Module)
 
 
 class CheckpointError(RuntimeError):
@@ -70,9 +73,7 @@ def load_state_into(module: torch.nn.Module, tensors: dict[str, torch.Tensor], s
     module.load_state_dict(tensors, strict=True)
 
 
-def load_model(
-    stem: str | Path, kind: str, what: str, build: Callable[[dict], torch.nn.Module]
-) -> tuple[torch.nn.Module, dict]:
+def load_model(stem: str | Path, kind: str, what: str, build: Callable[[dict], ModelT]) -> tuple[ModelT, dict]:
     """Load checkpoint `stem` of metadata kind `kind` into `build(architecture)`, in eval mode; (model, metadata).
 
     what: the model's description in errors ("a robot-state VAE"). Raises CheckpointError naming the file and the

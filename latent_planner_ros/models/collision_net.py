@@ -22,6 +22,12 @@ from latent_planner_ros.robot.torch_fk import TorchFK
 class CollisionNet(nn.Module):
     """Scene encoder + shared per-link classifier (L = len(LABEL_LINKS) links)."""
 
+    # buffers (register_buffer in __init__)
+    link_points: torch.Tensor
+    centre: torch.Tensor
+    half_extent: torch.Tensor
+    one_hot: torch.Tensor
+
     def __init__(self, config: CollisionNetConfig):
         super().__init__()
         self.config = config

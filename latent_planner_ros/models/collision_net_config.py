@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from typing import Any
 
 from latent_planner_ros.models.scene_encoder import SceneEncoderConfig
 
@@ -43,4 +44,5 @@ class CollisionNetConfig:
     def from_dict(cls, d: dict) -> CollisionNetConfig:
         d = dict(d)
         enc = SceneEncoderConfig.from_dict(d.pop("encoder"))
-        return cls(encoder=enc, **{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
+        fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
+        return cls(encoder=enc, **fields)

@@ -40,6 +40,10 @@ class CylinderClassifierConfig:
 class CylinderClassifier(nn.Module):
     """p(collision) of the robot state with latent z against one cylinder o."""
 
+    # buffers (register_buffer in __init__)
+    o_mean: torch.Tensor
+    o_std: torch.Tensor
+
     def __init__(self, config: CylinderClassifierConfig | None = None):
         super().__init__()
         self.config = config or CylinderClassifierConfig()

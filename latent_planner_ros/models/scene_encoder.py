@@ -9,6 +9,7 @@ with one float field per feature channel (f0..fC-1).
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from typing import Any, cast
 
 import numpy as np
 import torch
@@ -69,7 +70,8 @@ class SceneEncoderConfig:
     def grid_shape(self) -> tuple[int, int, int]:
         """Voxels along x, y, z."""
         cells = (np.asarray(self.bounds_max) - np.asarray(self.bounds_min)) / self.voxel_size
-        return tuple(int(c) for c in np.round(cells))
+        nx, ny, nz = (int(c) for c in np.round(cells))
+        return nx, ny, nz
 
     @property
     def channels(self) -> int:
@@ -81,7 +83,8 @@ class SceneEncoderConfig:
 
     @classmethod
     def from_dict(cls, d: dict) -> SceneEncoderConfig:
-        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
+        fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
+        return cls(**fields)
 
 
 def voxel_centres(config: SceneEncoderConfig) -> np.ndarray:
@@ -136,6 +139,12 @@ class SceneEmbedding:
 
 class SceneEncoder(nn.Module):
     """Point clouds -> voxel feature grids (B, C, nx, ny, nz)."""
+
+    # buffers (register_buffer in __init__)
+    bounds_min: torch.Tensor
+    grid_dims: torch.Tensor
+    centre: torch.Tensor
+    samples: torch.Tensor
 
     def __init__(self, config: SceneEncoderConfig):
         super().__init__()
@@ -282,7 +291,7 @@ class SceneEncoder(nn.Module):
         three broadcast multiply-adds: the same numbers, faster than a matrix product this thin."""
         if torch.is_grad_enabled():
             return self.point_mlp(offset)
-        first, second = self.point_mlp[0], self.point_mlp[2]
+        first, second = cast(nn.Linear, self.point_mlp[0]), self.point_mlp[2]
         w = first.weight.T  # (3, hidden)
         h = torch.addcmul(first.bias, offset[:, :1], w[0])
         h = torch.addcmul(h, offset[:, 1:2], w[1])

@@ -47,6 +47,12 @@ class RobotStateVAE(nn.Module):
     Inputs are standardised with the stored statistics `x_mean`, `x_std` (buffers, shape (16,)).
     """
 
+    # buffers (register_buffer in __init__)
+    x_mean: torch.Tensor
+    x_std: torch.Tensor
+    q_mid: torch.Tensor
+    q_half: torch.Tensor
+
     def __init__(self, config: VaeConfig):
         super().__init__()
         self.config = config

@@ -90,11 +90,11 @@ class CollisionChecker:
         for cp in keep:
             geom.addCollisionPair(cp)
         self.geom = geom
-        names = [
+        pair_names = [
             (geom.geometryObjects[cp.first].name, geom.geometryObjects[cp.second].name) for cp in geom.collisionPairs
         ]
-        self._is_table_pair = np.array([TABLE_NAME in pair for pair in names])
-        self.pair_names = names
+        self._is_table_pair = np.array([TABLE_NAME in pair for pair in pair_names])
+        self.pair_names = pair_names
         self._data = model.createData()
         self._gdata = pin.GeometryData(geom)
         self._pool = None  # the broad-phase pool of `feasible`, built on first use
@@ -137,6 +137,6 @@ class CollisionChecker:
         try:
             hits = pin.computeCollisionsInParallel(1, self._pool, np.asfortranarray(q.T), True)
         finally:
-            if threads is not None:
+            if threads is not None and _OPENMP is not None:
                 _OPENMP.omp_set_num_threads(threads)
         return ~np.asarray(hits, dtype=bool)

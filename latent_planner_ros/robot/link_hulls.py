@@ -74,7 +74,8 @@ def hull_cover_spheres() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         flip = a + b > 1
         a, b = np.where(flip, 1 - a, a), np.where(flip, 1 - b, b)
         surface = tri[idx, 0] + a * (tri[idx, 1] - tri[idx, 0]) + b * (tri[idx, 2] - tri[idx, 0])
-        gap = float(cKDTree(surface).query(surface, k=2)[0][:, 1].max())  # farthest a surface point is from a sample
+        nearest_two = np.asarray(cKDTree(surface).query(surface, k=2)[0])
+        gap = float(nearest_two[:, 1].max())  # farthest a surface point is from a sample
         k = min(HULL_SPHERES_PER_LINK, len(surface))
         centre, label = kmeans2(surface, k, seed=rng, minit="++")
         for j in range(k):

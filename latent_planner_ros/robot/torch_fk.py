@@ -7,6 +7,8 @@ float64 numpy, large ones (training) in torch; both have the closed-form first d
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import torch
 
@@ -31,6 +33,11 @@ class TorchFK(torch.nn.Module):
         frames: names of the frames to return (default: every link frame and the TCP).
         dtype: computation dtype (float32 for training and planning, float64 for checks).
     """
+
+    # buffers (register_buffer in __init__)
+    rz_cos: torch.Tensor
+    rz_sin: torch.Tensor
+    rz_const: torch.Tensor
 
     def __init__(self, frames: tuple[str, ...] = LINK_FRAMES, dtype: torch.dtype = torch.float32):
         super().__init__()
@@ -62,7 +69,7 @@ class TorchFK(torch.nn.Module):
             self.placed_groups.append((j, idx, f"placed_{j}"))
         self.frame_joint = frame_joint  # joint index 0..7 (0 = world) each frame hangs from
         # the same chain in float64 numpy for small CPU batches (NUMPY_MAX_BATCH)
-        self._np = {
+        self._np: dict[str, Any] = {
             "cos": self.rz_cos.double().numpy(),
             "sin": self.rz_sin.double().numpy(),
             "const": self.rz_const.double().numpy(),
@@ -149,10 +156,12 @@ class _Kinematics(torch.autograd.Function):
             frames, joints = fk._frames_np(q.detach().numpy().astype(np.float64))
             ctx.numpy = (frames, joints[:, 1:], fk._np["after"])
             return torch.from_numpy(frames).to(q.dtype)
-        frames, joints = fk._frames_torch(q)
+        frames_t, joints_t = fk._frames_torch(q)
         ctx.numpy = None
-        ctx.save_for_backward(frames, joints[:, 1:], torch.as_tensor(fk._np["after"], dtype=q.dtype, device=q.device))
-        return frames
+        ctx.save_for_backward(
+            frames_t, joints_t[:, 1:], torch.as_tensor(fk._np["after"], dtype=q.dtype, device=q.device)
+        )
+        return frames_t
 
     @staticmethod
     def backward(ctx, grad: torch.Tensor):
@@ -167,7 +176,7 @@ class _Kinematics(torch.autograd.Function):
             cross = torch.linalg.cross
         a, p = joints[..., :3, 2], joints[..., :3, 3]  # joint axes and origins in world, (n, 7, 3)
         # <skew(a), M[:3, :3]> = a . (M32 - M23, M13 - M31, M21 - M12)
-        w = (m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1])
-        w = np.stack(w, -1) if ctx.numpy is not None else torch.stack(w, -1)
+        parts = (m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1])
+        w = np.stack(parts, -1) if ctx.numpy is not None else torch.stack(parts, -1)
         grad_q = (a * w).sum(-1) + (cross(p, a) * m[..., :3, 3]).sum(-1)
         return torch.as_tensor(grad_q, dtype=grad.dtype), None

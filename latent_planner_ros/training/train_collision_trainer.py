@@ -14,6 +14,7 @@ import torch.nn.functional as F
 from latent_planner_ros.data.camera import CameraConfig, CameraIntrinsics
 from latent_planner_ros.data.dataset import CollisionData
 from latent_planner_ros.data.obstacle_geometry import triangle_mesh
+from latent_planner_ros.data.obstacles import vec3
 from latent_planner_ros.data.render import scene_view, voxel_downsample
 from latent_planner_ros.models.checkpoint import load_checkpoint, load_state_into, save_checkpoint
 from latent_planner_ros.models.collision_io import save_collision_net
@@ -78,9 +79,9 @@ def evaluate_net(
         per, logit = link_losses(net, net.link_logits(grid, q, z), y, y_link, config.link_loss_weight)
         ps.append(torch.sigmoid(logit)[0].cpu().numpy())
         losses.append(per.mean().item())
-    p, y, near = np.concatenate(ps), d.labels, d.near
-    prec, rec = precision_recall(p[near], y[near], config.threshold)
-    return {"loss": float(np.mean(losses)), "auroc": auroc(p, y), "auroc_near": auroc(p[near], y[near]),
+    p, labels, near = np.concatenate(ps), d.labels, d.near
+    prec, rec = precision_recall(p[near], labels[near], config.threshold)
+    return {"loss": float(np.mean(losses)), "auroc": auroc(p, labels), "auroc_near": auroc(p[near], labels[near]),
             "precision_near": prec, "recall_near": rec}  # fmt: skip
 
 
@@ -169,7 +170,7 @@ class CollisionTrainer:
         camera = replace(self.camera, intrinsics=intrinsics)
         if scene.obstacles and rng.random() < c.aim_at_objects:
             target = triangle_mesh(scene.obstacles[int(rng.integers(len(scene.obstacles)))])[0].mean(0)
-            camera = replace(camera, target=tuple(float(v) for v in target))
+            camera = replace(camera, target=vec3(target))
         pts, eye = scene_view(scene, rng, camera)
         if rng.random() < c.voxel_downsample_prob:
             return voxel_downsample(pts, rng.uniform(*c.voxel_downsample_size)), eye
