@@ -1,7 +1,9 @@
 """The simulated depth camera: OpenGL depth + geom segmentation -> point cloud in world, robot removed.
 
 Each capture renders the scene offscreen once (depth and geom id per pixel), drops the pixels that see
-the robot (or nothing), adds optional noise and dropout, unprojects into world, crops and downsamples.
+the robot (or nothing), adds optional noise and dropout, unprojects into world, crops and downsamples. Rays and
+poses are those of data/camera.py (optical frame); the MuJoCo camera's orientation is read through
+sim_bridge/camera_frame.py.
 """
 
 from __future__ import annotations
@@ -9,8 +11,10 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from latent_planner_ros.data.camera import unproject
 from sim_bridge.camera_config import CameraConfig
-from sim_bridge.cloud import corrupt_depth, crop, pixel_rays, unproject, voxel_downsample
+from sim_bridge.camera_frame import optical_from_mujoco
+from sim_bridge.cloud import corrupt_depth, crop, voxel_downsample
 from sim_bridge.depth_render import DepthSegRenderer
 from sim_bridge.mjcf import DEPTH_CAMERA
 
@@ -48,7 +52,7 @@ class DepthCamera:
         self.rng = rng
         self.camera_id = model.camera(name).id
         self._robot_geoms = np.asarray(robot_geoms, dtype=bool)
-        self._rays = pixel_rays(config.height, config.width, config.focal_px, config.stride)
+        self._rays = config.intrinsics.ray_directions(config.stride)
         self._option = depth_scene_option()
         self._renderer: DepthSegRenderer | None = None
 
@@ -69,15 +73,16 @@ class DepthCamera:
         if c.remove_robot:
             valid &= ~self._robot_geoms[np.maximum(geom, 0)]
         depth = corrupt_depth(np.where(valid, depth, np.nan), self.rng, c.depth_noise, c.dropout)
-        position = data.cam_xpos[self.camera_id]
-        rotation = data.cam_xmat[self.camera_id].reshape(3, 3)
-        points = unproject(depth, self._rays, position, rotation)
+        points = unproject(depth, self._rays, self.pose(data))
         points = voxel_downsample(crop(points, np.asarray(c.crop_min), np.asarray(c.crop_max)), c.voxel_size)
         return points.astype(np.float32)
 
-    def pose(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
-        """The camera's optical centre (3,) [m] and camera-to-world rotation (3, 3) in world now."""
-        return data.cam_xpos[self.camera_id].copy(), data.cam_xmat[self.camera_id].reshape(3, 3).copy()
+    def pose(self, data: mujoco.MjData) -> np.ndarray:
+        """The camera's (4, 4) camera-to-world transform now, optical frame (data/camera.py)."""
+        pose = np.eye(4)
+        pose[:3, :3] = optical_from_mujoco(data.cam_xmat[self.camera_id].reshape(3, 3))
+        pose[:3, 3] = data.cam_xpos[self.camera_id]
+        return pose
 
     def close(self) -> None:
         """Release the OpenGL context (call from the capturing thread)."""

@@ -1,17 +1,20 @@
 """CameraConfig: the simulated depth camera's intrinsics, pose and point-cloud processing.
 
 Fields map 1:1 onto the ``camera.*`` parameters of the ``sim`` node and ``config/sim.yaml`` (and onto the
-``<name>.*`` parameters of every other camera listed in ``cameras``; sim_bridge/camera_rig.py).
+``<name>.*`` parameters of every other camera listed in ``cameras``; sim_bridge/camera_rig.py). Its intrinsics and
+pose are the project's one camera description (latent_planner_ros/data/camera.py, optical frame).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from latent_planner_ros.data.camera import CameraIntrinsics
+from latent_planner_ros.data.camera import look_at as look_at_pose
 from latent_planner_ros.data.cloud_ops import REACH_CROP_MAX, REACH_CROP_MIN
+from sim_bridge.camera_frame import mujoco_from_optical
 from sim_bridge.params import ConfigError, check_int, check_number, check_vector
 
 Vec3 = tuple[float, float, float]
@@ -21,8 +24,8 @@ Vec3 = tuple[float, float, float]
 class CameraConfig:
     """A pinhole depth camera looking at the table, and how its depth image becomes a cloud.
 
-    Intrinsics: square pixels, principal point at the image centre, focal length
-    f = height / (2 tan(fovy / 2)) pixels.
+    Intrinsics (:attr:`intrinsics`): square pixels, principal point at the image centre, focal length
+    f = height / (2 tan(fovy / 2)) pixels. Pose (:meth:`pose`): the optical frame of data/camera.py.
 
     Attributes:
         width, height: [pixels] depth image size.
@@ -84,15 +87,15 @@ class CameraConfig:
         check_number("rate", self.rate, 0.0, 100.0)
 
     @property
-    def focal_px(self) -> float:
-        """Focal length [pixels] (fx = fy)."""
-        return self.height / (2.0 * math.tan(math.radians(self.fovy) / 2.0))
+    def intrinsics(self) -> CameraIntrinsics:
+        """The pinhole intrinsics of the depth image (data/camera.py)."""
+        return CameraIntrinsics.from_fov(self.width, self.height, self.fovy)
+
+    def pose(self) -> np.ndarray:
+        """(4, 4) camera-to-world transform in the optical frame (z towards look_at, x right, y down)."""
+        return look_at_pose(np.asarray(self.position, dtype=float), np.asarray(self.look_at, dtype=float))
 
     def rotation(self) -> np.ndarray:
-        """Camera orientation in world (3, 3): columns = image right, image up, backward (MuJoCo convention)."""
-        forward = np.subtract(self.look_at, self.position).astype(float)
-        forward /= np.linalg.norm(forward)
-        right = np.cross(forward, [0.0, 0.0, 1.0])
-        right /= np.linalg.norm(right)
-        up = np.cross(right, forward)
-        return np.stack([right, up, -forward], axis=1)
+        """Orientation (3, 3) in world of the MJCF camera this config places (MuJoCo's camera frame: columns =
+        image right, image up, backward; sim_bridge/camera_frame.py)."""
+        return mujoco_from_optical(self.pose()[:3, :3])

@@ -29,6 +29,7 @@ from scipy.spatial.transform import Rotation
 
 from sim_bridge.camera import DepthCamera
 from sim_bridge.camera_config import CameraConfig
+from sim_bridge.camera_frame import mujoco_from_optical
 from sim_bridge.camera_rig import RigCamera, camera_rig
 from sim_bridge.command import CommandResult, JointCommand
 from sim_bridge.mjcf import DEPTH_CAMERA, OBJECT_PREFIX, TCP_SITE, build_scene, extra_camera_name
@@ -212,9 +213,15 @@ class Sim:
 
     def camera_pose(self, camera: str | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Depth camera `camera`'s (None: the first) optical centre (3,) [m] and orientation quaternion_xyzw (4,)
-        in world (MuJoCo's camera frame: x right, y up, looking along -z)."""
-        position, rotation = self._camera(camera).pose(self.data)
-        return position, Rotation.from_matrix(rotation).as_quat()
+        in world, as published on ``<camera>/pose``: MuJoCo's camera frame (x right, y up, looking along -z;
+        sim_bridge/camera_frame.py). The optical-frame pose is ``camera_transform``."""
+        pose = self.camera_transform(camera)
+        return pose[:3, 3], Rotation.from_matrix(mujoco_from_optical(pose[:3, :3])).as_quat()
+
+    def camera_transform(self, camera: str | None = None) -> np.ndarray:
+        """Depth camera `camera`'s (None: the first) (4, 4) camera-to-world transform, optical frame
+        (data/camera.py: z forward, x right, y down); its clouds are the depth image unprojected with it."""
+        return self._camera(camera).pose(self.data)
 
     def _camera(self, name: str | None) -> DepthCamera:
         name = self.rig[0].name if name is None else name

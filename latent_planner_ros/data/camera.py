@@ -1,8 +1,13 @@
-"""Pinhole depth camera model and random viewpoints around the table.
+"""The one camera description of the project: pinhole intrinsics and a camera-to-world pose in the optical frame.
 
-Conventions (as a ROS/MuJoCo depth camera's optical frame): z forward, x right, y down; pixel (u, v) with
-u along the width sees the ray direction ((u - cx) / fx, (v - cy) / fy, 1) in the camera frame, and the depth
-is the z coordinate of the hit point in that frame.
+Convention (ROS's optical frame, REP 103 and sensor_msgs/CameraInfo): z forward along the optical axis, x right and
+y down in the image. Pixel (u, v), u the column from the left and v the row from the top, integer at pixel centres,
+sees the ray ((u - cx) / fx, (v - cy) / fy, 1) in the camera frame; the depth of a pixel is the z coordinate of its
+hit point in that frame. Poses are (4, 4) camera-to-world transforms whose rotation columns are the optical x, y, z
+axes in `world`. The collision data (data/render.py) and the simulated cameras (sim_bridge/camera.py) both use it;
+the sim turns it into MuJoCo's camera frame in one place (sim_bridge/camera_frame.py).
+
+Also here: random viewpoints around the table for the collision data (CameraConfig, sample_camera_pose).
 """
 
 from __future__ import annotations
@@ -30,14 +35,29 @@ class CameraIntrinsics:
         f = (height / 2) / math.tan(math.radians(fovy_deg) / 2)
         return cls(width, height, f, f, (width - 1) / 2, (height - 1) / 2)
 
-    def ray_directions(self) -> np.ndarray:
-        """(H, W, 3) ray directions in the camera frame with unit z component."""
-        u, v = np.meshgrid(np.arange(self.width), np.arange(self.height))
+    def ray_directions(self, stride: int = 1) -> np.ndarray:
+        """(H', W', 3) ray directions in the camera frame with unit z component, of every stride-th pixel row and
+        column (H' = ceil(H / stride)); a pixel at depth d [m] is at d * ray."""
+        u, v = np.meshgrid(np.arange(0, self.width, stride), np.arange(0, self.height, stride))
         return np.stack([(u - self.cx) / self.fx, (v - self.cy) / self.fy, np.ones(u.shape)], -1)
 
 
+def unproject(depth: np.ndarray, rays: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """World points (N, 3) float64 [m] of the pixels of a depth image with finite depth, in row-major order.
+
+    Args:
+        depth: (H', W') [m] along the optical axis; NaN or inf = no return.
+        rays: (H', W', 3) from CameraIntrinsics.ray_directions (same decimation as depth).
+        pose: (4, 4) camera-to-world transform (optical frame).
+    """
+    keep = np.isfinite(depth)
+    return rays[keep] * depth[keep][:, None] @ pose[:3, :3].T + pose[:3, 3]
+
+
 def look_at(eye: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """(4, 4) camera-to-world pose of a camera at `eye` (3,) [m] looking at `target` (3,), image y pointing down."""
+    """(4, 4) camera-to-world pose (optical frame) of a camera at `eye` (3,) [m] looking at `target` (3,) [m]: z along
+    the line of sight, x horizontal (to the image's right), y down, so world up is up in the image. Looking straight
+    down or up, x is world -y."""
     z = np.asarray(target, dtype=float) - np.asarray(eye, dtype=float)
     z /= np.linalg.norm(z)
     x = np.cross(z, [0.0, 0.0, 1.0])

@@ -1,10 +1,11 @@
-"""Virtual depth images and point clouds of a scene by raycasting (open3d), robot not rendered."""
+"""Virtual depth images and point clouds of a scene by raycasting (open3d), robot not rendered; cameras as in
+data/camera.py (optical frame)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from latent_planner_ros.data.camera import CameraConfig, CameraIntrinsics, sample_camera_pose
+from latent_planner_ros.data.camera import CameraConfig, CameraIntrinsics, sample_camera_pose, unproject
 from latent_planner_ros.data.cloud_ops import crop
 from latent_planner_ros.data.cloud_ops import voxel_downsample as float64_voxel_downsample
 from latent_planner_ros.data.obstacle_geometry import triangle_mesh
@@ -51,10 +52,9 @@ def render_depth(scene: Scene, pose: np.ndarray, intrinsics: CameraIntrinsics, t
 
 
 def depth_to_points(depth: np.ndarray, pose: np.ndarray, intrinsics: CameraIntrinsics) -> np.ndarray:
-    """Back-project the finite pixels of a depth image (H, W) [m] into `world` points (N, 3) float32."""
-    ok = np.isfinite(depth)
-    p_cam = intrinsics.ray_directions()[ok] * depth[ok][:, None]
-    return (p_cam @ pose[:3, :3].T + pose[:3, 3]).astype(np.float32)
+    """Back-project the finite pixels of a depth image (H, W) [m] seen from `pose` (4, 4) into `world` points (N, 3)
+    float32."""
+    return unproject(depth, intrinsics.ray_directions(), pose).astype(np.float32)
 
 
 def add_depth_noise(depth: np.ndarray, rng: np.random.Generator, sigma: float, quadratic: float) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from latent_planner_ros.data.camera import CameraConfig, CameraIntrinsics, look_at, sample_camera_pose
+from latent_planner_ros.data.camera import CameraConfig, CameraIntrinsics, look_at, sample_camera_pose, unproject
 from latent_planner_ros.data.obstacles import Box
 from latent_planner_ros.data.render import render_depth, scene_cloud
 from latent_planner_ros.data.scene import Scene
@@ -53,6 +53,42 @@ def test_depth_is_the_optical_z_coordinate():
     pose = look_at(np.array([0.5, 0.0, 1.0]), np.array([0.5, 0.0, 0.0]))
     depth = render_depth(Scene(()), pose, intr)
     np.testing.assert_allclose(depth, 1.0, atol=1e-5)
+
+
+def test_look_at_gives_the_optical_frame():
+    # at x = 1 looking back along -x: z forward = -x, x right = +y, y down = -z, a right-handed rotation
+    pose = look_at(np.array([1.0, 0.0, 0.5]), np.array([0.0, 0.0, 0.5]))
+    np.testing.assert_allclose(pose[:3, :3], [[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]], atol=1e-12)
+    np.testing.assert_allclose(pose[:3, 3], [1.0, 0.0, 0.5])
+    assert np.linalg.det(pose[:3, :3]) > 0.999
+    down = look_at(np.array([0.5, 0.0, 1.0]), np.array([0.5, 0.0, 0.0]))  # straight down: x is world -y
+    np.testing.assert_allclose(down[:3, :3], [[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]], atol=1e-12)
+
+
+def test_rays_and_unprojection_follow_the_pixel_convention(rng):
+    intr = CameraIntrinsics(width=8, height=6, fx=10.0, fy=12.0, cx=3.5, cy=2.5)
+    rays = intr.ray_directions()
+    assert rays.shape == (6, 8, 3) and np.all(rays[..., 2] == 1.0)
+    np.testing.assert_allclose(rays[0, 0], [-0.35, -2.5 / 12.0, 1.0])  # top left: x < 0 (left), y < 0 (up)
+    np.testing.assert_allclose(rays[5, 7], [0.35, 2.5 / 12.0, 1.0])
+    np.testing.assert_array_equal(intr.ray_directions(stride=3), rays[::3, ::3])
+    pose = look_at(np.array([1.2, 0.4, 0.8]), np.array([0.3, -0.1, 0.1]))
+    depth = np.full((6, 8), np.nan)
+    depth[1, 6], depth[4, 2] = 0.7, 1.3
+    depth[0, 0] = np.inf
+    points = unproject(depth, rays, pose)
+    # each point, seen from the camera, projects back onto its pixel at its depth
+    p_cam = (points - pose[:3, 3]) @ pose[:3, :3]
+    u, v = intr.fx * p_cam[:, 0] / p_cam[:, 2] + intr.cx, intr.fy * p_cam[:, 1] / p_cam[:, 2] + intr.cy
+    np.testing.assert_allclose(np.stack([u, v, p_cam[:, 2]], 1), [[6, 1, 0.7], [2, 4, 1.3]], atol=1e-12)
+
+
+def test_from_fov_centres_the_principal_point():
+    intr = CameraIntrinsics.from_fov(64, 48, 60.0)
+    assert (intr.cx, intr.cy) == (31.5, 23.5) and intr.fx == intr.fy
+    rays = intr.ray_directions()
+    # the outermost pixel centres are half a pixel inside the field of view
+    np.testing.assert_allclose(rays[-1, 0, 1], np.tan(np.radians(30.0)) * (1 - 1 / 48), atol=1e-12)
 
 
 def test_sampled_viewpoints_respect_the_ranges(rng):

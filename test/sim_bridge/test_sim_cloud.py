@@ -1,18 +1,20 @@
-"""Depth-image processing: unprojection, cropping, voxel downsampling, noise and dropout."""
+"""Depth-image processing: unprojection with the sim camera's intrinsics and pose, cropping, voxel downsampling,
+noise and dropout."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from latent_planner_ros.data.camera import unproject
 from sim_bridge.camera_config import CameraConfig
-from sim_bridge.cloud import corrupt_depth, crop, pixel_rays, unproject, voxel_downsample
+from sim_bridge.cloud import corrupt_depth, crop, voxel_downsample
 
 
 def test_unprojection_of_a_plane_facing_the_camera():
     cam = CameraConfig(width=64, height=48, fovy=60.0, position=(0.0, 0.0, 1.0), look_at=(2.0, 0.0, 1.0))
-    rays = pixel_rays(cam.height, cam.width, cam.focal_px)
+    rays = cam.intrinsics.ray_directions()
     depth = np.full((cam.height, cam.width), 2.0)
-    points = unproject(depth, rays, np.asarray(cam.position), cam.rotation())
+    points = unproject(depth, rays, cam.pose())
     np.testing.assert_allclose(points[:, 0], 2.0)  # every pixel on the wall x = 2
     # image top row sees higher z, left column sees larger y (camera looks along +x, up = +z)
     grid = points.reshape(cam.height, cam.width, 3)
@@ -22,8 +24,11 @@ def test_unprojection_of_a_plane_facing_the_camera():
 
 
 def test_stride_keeps_every_nth_pixel():
-    full = pixel_rays(48, 64, 50.0)
-    np.testing.assert_allclose(pixel_rays(48, 64, 50.0, stride=4), full[::4, ::4])
+    intrinsics = CameraConfig(width=64, height=48, fovy=50.0).intrinsics
+    full = intrinsics.ray_directions()
+    assert full.shape == (48, 64, 3)
+    np.testing.assert_array_equal(intrinsics.ray_directions(stride=4), full[::4, ::4])
+    np.testing.assert_array_equal(intrinsics.ray_directions(stride=5), full[::5, ::5])
 
 
 def test_crop_and_voxel_downsample(rng):
