@@ -1,7 +1,7 @@
 """The Ray path of batch/executor.py: tasks as Ray tasks, one CPU each, on a local or a running cluster.
 
 Imported only when a command is given --cluster; Ray is the optional extra `pip install .[cluster]`
-(requirements-cluster.txt). Each task runs `executor.run_task` in a Ray worker process (`run_pickled`); Ray
+(requirements-cluster.txt). Each task runs `job.run_task` in a Ray worker process (`run_pickled`); Ray
 reuses worker processes, so a job's state is built once per worker as with local processes. A task whose worker
 process (or node) dies is run again by Ray (`max_retries`); one that Ray still gives up as lost is submitted again
 by the driver (ExecutorConfig.resubmits), so a lost worker costs time, not results. An exception raised by the
@@ -16,7 +16,7 @@ import sys
 from collections.abc import Iterator
 from typing import Any
 
-from latent_planner_ros.batch.executor import ExecutorConfig, Job, run_task
+from latent_planner_ros.batch.job import ExecutorConfig, Job, run_task
 
 
 def run_pickled(key: str, job: Job, task: bytes) -> bytes:

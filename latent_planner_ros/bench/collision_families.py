@@ -6,7 +6,7 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
-from latent_planner_ros.bench.collision import (
+from latent_planner_ros.bench.collision_scores import (
     BENCH_SEED,
     WORKCELL_VIEWS,
     bench_data,

@@ -29,8 +29,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from tqdm import tqdm
 
-from latent_planner_ros.bench.scenario_generator import DIGITS
-from latent_planner_ros.bench.scenarios import ScenarioProblem, ScenarioSet, round_obstacle
+from latent_planner_ros.bench.scenarios import DIGITS, ScenarioProblem, ScenarioSet, round_obstacle
 from latent_planner_ros.bench.workcell_problems import _ik, default_workcell_cameras, pick_start
 from latent_planner_ros.data.grasp_objects import GraspObject, clearance_except_support, draw_object
 from latent_planner_ros.data.labels import CollisionLabeler

@@ -29,8 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm import tqdm
 
+from latent_planner_ros.bench.problem_checks import direct_motion_collides, inflated
 from latent_planner_ros.bench.scenarios import (
     DEFAULT_SET,
+    DIGITS,
     CameraSpec,
     ScenarioProblem,
     ScenarioSet,
@@ -39,24 +41,12 @@ from latent_planner_ros.bench.scenarios import (
 )
 from latent_planner_ros.data.camera import CameraConfig, sample_camera_pose
 from latent_planner_ros.data.labels import CollisionLabeler
-from latent_planner_ros.data.obstacles import (
-    Box,
-    Capsule,
-    Cylinder,
-    Mesh,
-    Obstacle,
-    Sphere,
-    obstacle_from_dict,
-    obstacle_to_dict,
-)
+from latent_planner_ros.data.obstacles import obstacle_from_dict, obstacle_to_dict
 from latent_planner_ros.data.scene import Scene
 from latent_planner_ros.data.scene_generator import generate_scene
 from latent_planner_ros.robot.panda import load_panda
 from latent_planner_ros.robot.rotations import matrix_to_quat
 from latent_planner_ros.robot.sampler import FeasibleSampler
-
-DIGITS = 6
-"""decimals kept in the file (micrometres, micro-radians)"""
 
 
 @dataclass(frozen=True)
@@ -78,30 +68,6 @@ class GeneratorConfig:
     """feasible configurations drawn per scene"""
     pairs_per_scene: int = 12
     """start/goal pairs tried per scene before drawing a new scene"""
-
-
-def inflated(obstacle: Obstacle, margin: float) -> Obstacle:
-    """The obstacle grown by `margin` [m] (primitives exactly; meshes scaled about their centroid)."""
-    if isinstance(obstacle, Box):
-        return Box(obstacle.position, obstacle.quaternion_xyzw, tuple(h + margin for h in obstacle.half_extents))
-    if isinstance(obstacle, Sphere):
-        return Sphere(obstacle.position, obstacle.radius + margin)
-    if isinstance(obstacle, Cylinder):
-        return Cylinder(
-            obstacle.position, obstacle.quaternion_xyzw, obstacle.radius + margin, obstacle.half_length + margin
-        )
-    if isinstance(obstacle, Capsule):
-        return Capsule(obstacle.position, obstacle.quaternion_xyzw, obstacle.radius + margin, obstacle.half_length)
-    c = obstacle.vertices.mean(0)
-    r = np.linalg.norm(obstacle.vertices - c, axis=1)
-    scale = (r + margin) / np.maximum(r, 1e-9)
-    return Mesh(vertices=c + (obstacle.vertices - c) * scale[:, None], faces=obstacle.faces)
-
-
-def direct_motion_collides(labeler: CollisionLabeler, qa: np.ndarray, qb: np.ndarray, step: float = 0.02) -> bool:
-    """Whether the straight joint-space line qa -> qb (7,) [rad], checked every `step` [rad], hits an obstacle."""
-    k = max(1, int(np.ceil(np.abs(qb - qa).max() / step)))
-    return bool(labeler.label(qa + (qb - qa) * (np.arange(k + 1) / k)[:, None]).any())
 
 
 def generate_problem(index: int, config: GeneratorConfig, max_scenes: int = 200) -> ScenarioProblem:

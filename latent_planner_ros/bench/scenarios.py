@@ -201,6 +201,10 @@ class ScenarioSet:
         return ScenarioSet(self.name, self.problems[:n], self.table, self.description, self.extra)
 
 
+DIGITS = 6
+"""decimals kept in a scenario file by the generators (micrometres, micro-radians)"""
+
+
 # -- parsing -------------------------------------------------------------------------------------------
 def round_obstacle(d: dict, digits: int | None) -> dict:
     """An obstacle dict with its numbers rounded to `digits` decimals (faces kept)."""

@@ -35,8 +35,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 from tqdm import tqdm
 
-from latent_planner_ros.bench.scenario_generator import DIGITS, direct_motion_collides, inflated
-from latent_planner_ros.bench.scenarios import CameraSpec, ScenarioProblem, ScenarioSet, round_obstacle
+from latent_planner_ros.bench.problem_checks import direct_motion_collides, inflated
+from latent_planner_ros.bench.scenarios import DIGITS, CameraSpec, ScenarioProblem, ScenarioSet, round_obstacle
 from latent_planner_ros.data.camera import CameraConfig, sample_camera_pose
 from latent_planner_ros.data.labels import CollisionLabeler
 from latent_planner_ros.data.obstacles import obstacle_from_dict, obstacle_to_dict

@@ -47,7 +47,7 @@ def test_collisions_beyond_the_networks_box_are_found_by_their_contacts():
 
     import numpy as np
 
-    from latent_planner_ros.bench.collision import outside_box
+    from latent_planner_ros.bench.collision_scores import outside_box
     from latent_planner_ros.data.obstacles import Box
     from latent_planner_ros.data.scene import Scene
     from latent_planner_ros.robot.limits import Q_READY
@@ -89,7 +89,7 @@ def test_bench_collision_refuses_an_unknown_family(tmp_path, capsys):
 def test_workcell_scenes_are_scored_on_fused_views_of_their_furniture():
     import numpy as np
 
-    from latent_planner_ros.bench.collision import fused_view
+    from latent_planner_ros.bench.collision_scores import fused_view
     from latent_planner_ros.data.camera import CameraConfig
     from latent_planner_ros.data.scene_families import generate_family_scene
 

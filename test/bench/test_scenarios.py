@@ -6,7 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from latent_planner_ros.bench.scenario_generator import GeneratorConfig, direct_motion_collides, generate_set
+from latent_planner_ros.bench.problem_checks import direct_motion_collides
+from latent_planner_ros.bench.scenario_generator import GeneratorConfig, generate_set
 from latent_planner_ros.bench.scenarios import (
     DEFAULT_SET,
     CameraSpec,
