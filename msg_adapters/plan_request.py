@@ -60,7 +60,8 @@ def plan_result_status(
     if outcome == SUCCESS:
         message = f"{reason} in {planning_time_s:.2f} s" if time_known else reason
     elif outcome == FAILED:
-        message = f"plan failed: {reason}" + (f" (error {final_pos_err_m * 1000:.0f} mm)" if err_known else "")
+        err_mm = final_pos_err_m * 1000 if final_pos_err_m is not None and err_known else None
+        message = f"plan failed: {reason}" + (f" (error {err_mm:.0f} mm)" if err_mm is not None else "")
     elif outcome == REFUSED:
         message = f"refused: {reason}"
     else:

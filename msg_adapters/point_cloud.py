@@ -20,7 +20,7 @@ from msg_adapters.errors import AdapterError
 XYZ = ("x", "y", "z")
 
 # Float field types we read; FLOAT64 is converted to float32. Integer types are refused.
-_FLOAT_TYPES = {PointField.FLOAT32: np.dtype("<f4"), PointField.FLOAT64: np.dtype("<f8")}
+_FLOAT_TYPES: dict[int, np.dtype] = {PointField.FLOAT32: np.dtype("<f4"), PointField.FLOAT64: np.dtype("<f8")}
 _TYPE_NAMES = {
     PointField.INT8: "INT8",
     PointField.UINT8: "UINT8",

@@ -123,7 +123,7 @@ def trajectory_to_execution(
     if t[0] < 0 or np.any(np.diff(t) <= 0):
         raise AdapterError(f"JointTrajectory time_from_start must be >= 0 and strictly increasing, got {t.tolist()}")
     cols = [msg_names.index(n) for n in names]
-    derivatives = []
+    derivatives: list[np.ndarray | None] = []
     for field in ("velocities", "accelerations"):
         lengths = {len(getattr(p, field)) for p in msg.points}
         if lengths == {0}:

@@ -78,7 +78,7 @@ class Evader:
         d, i = tree.query(centres, distance_upper_bound=HORIZON_M + float(self._radius.max()))
         found = np.isfinite(d)
         points = np.zeros_like(centres)
-        points[found] = tree.data[i[found]]
+        points[found] = tree.data[np.asarray(i)[found]]
         return np.minimum(np.where(found, d - self._radius, HORIZON_M), HORIZON_M), points
 
     def least_clearance(self, q: np.ndarray, newest: bool = True) -> float:
@@ -113,6 +113,7 @@ class Evader:
             return None
         gap = (centres[near] - torch.as_tensor(points[near])).norm(dim=-1) - torch.as_tensor(self._radius[near])
         torch.relu(self.margin - gap).pow(2).sum().backward()
+        assert qt.grad is not None  # set by backward()
         direction = -qt.grad.numpy()
         scale = float(np.max(np.abs(direction) / np.maximum(max_step, 1e-9)))
         if not np.isfinite(scale) or scale <= 0.0:

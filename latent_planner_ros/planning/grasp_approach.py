@@ -102,7 +102,7 @@ def straight_approach(
     length = float(np.linalg.norm(p1 - p0))
     n = max(1, math.ceil(length / config.step_m))
     slerp = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([start.rotation, goal.rotation])))
-    q, states = np.asarray(q_from, dtype=float), []
+    q, states = np.asarray(q_from, dtype=float), list[np.ndarray]()
     for k in range(1, n + 1):
         s = k / n
         where = f"{s * length * 100:.1f} of {length * 100:.1f} cm"

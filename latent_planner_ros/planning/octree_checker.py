@@ -116,13 +116,13 @@ class OctreeChecker(StateValidity):
 
     def colliding_links(self, q: np.ndarray, first_only: bool = False) -> list[str]:
         """Names of the links of q (7,) [rad] touching an occupied voxel."""
-        tree = self.occupancy.tree
-        if tree is None:
+        tree, points = self.occupancy.tree, self.occupancy.points
+        if tree is None or points is None:  # both None together: nothing is occupied
             return []
         pin.framesForwardKinematics(self.panda.model, self._data, np.asarray(q, dtype=float))
         poses = [self._data.oMf[fid].homogeneous for fid in self._frame_ids]
         centres = np.array([p[:3, :3] @ c + p[:3, 3] for p, c in zip(poses, self.links.sphere_centres, strict=True)])
-        gap, _ = self.occupancy.points.query(centres)
+        gap, _ = points.query(centres)
         reach = self.links.sphere_radii + self.occupancy.resolution * np.sqrt(3.0) + self._padding
         hits = []
         for k in np.flatnonzero(gap <= reach):

@@ -31,6 +31,7 @@ from latent_planner_ros.planning.ik import goal_configurations
 from latent_planner_ros.planning.octree_checker import OccupancyMap, OctreeChecker
 from latent_planner_ros.planning.ompl_baseline_config import PLANNERS, OmplConfig
 from latent_planner_ros.planning.result import PlanResult, result_from_path
+from latent_planner_ros.planning.state_validity import StateValidity
 from latent_planner_ros.robot.limits import Q_MAX, Q_MIN
 from latent_planner_ros.robot.panda import PandaModel, load_panda
 
@@ -92,7 +93,9 @@ class OmplPlanner:
         self.config = config or OmplConfig()
         self.name = self.config.planner
         self.panda = panda or load_panda()
-        self.checker = OctreeChecker(table=self.config.table, padding=self.config.padding, panda=self.panda)
+        self._octree = OctreeChecker(table=self.config.table, padding=self.config.padding, panda=self.panda)
+        self.checker: StateValidity = self._octree
+        """the state validity of every query (the occupancy map's here; subclasses may give another)"""
         self._rng = np.random.default_rng(self.config.seed)
         self._space, self._si = joint_space(self._state_valid)
         step = math.radians(self.config.check_step_deg)
@@ -200,7 +203,7 @@ class OmplPlanner:
         """Give the checker the obstacles of this query: the occupancy map of cloud (N, 3) [m]."""
         t = time.perf_counter()
         self._occupancy = OccupancyMap.from_cloud(cloud, self.config.octree_resolution, self.config.min_z)
-        self.checker.set_occupancy(self._occupancy)
+        self._octree.set_occupancy(self._occupancy)
         timings["octree_s"] = time.perf_counter() - t
         info["cloud_points"] = self._occupancy.points_used
 

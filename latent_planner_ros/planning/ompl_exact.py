@@ -37,6 +37,8 @@ class ExactOmplPlanner(OmplPlanner):
         scene: the obstacles (default: none until `set_scene` or `set_cylinders`).
     """
 
+    checker: SceneChecker
+
     def __init__(self, config: OmplConfig | None = None, panda: PandaModel | None = None, scene: Scene | None = None):
         super().__init__(config, panda)
         self.checker = SceneChecker(scene, table=self.config.table, padding=self.config.padding, panda=self.panda)

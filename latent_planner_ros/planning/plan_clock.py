@@ -11,7 +11,7 @@ clock.totals()                      # {"steps_s": ..., "check_s": ...}
 from __future__ import annotations
 
 import time
-from collections import Counter
+from collections import Counter, defaultdict
 from collections.abc import Callable
 from contextlib import contextmanager
 
@@ -25,8 +25,8 @@ class PlanClock:
 
     def __init__(self, now: Callable[[], float] = time.perf_counter) -> None:
         self._now = now
-        self.seconds: Counter = Counter()
-        self.counts: Counter = Counter()
+        self.seconds: defaultdict[str, float] = defaultdict(float)
+        self.counts: Counter[str] = Counter()
         self._stack: list[str] = []
         self._since = 0.0
 

@@ -71,7 +71,7 @@ def planning_function(planner: Any, lock: threading.Lock | None = None, reachabi
                     return refused_result(planner.panda, request.q, request.goal, "a grasp goal needs a cloud", t0)
                 return plan_grasp_spec(planner, request.q, request.goal, np.asarray(cloud), request.grasp)
             backend = getattr(planner, "backend", None)
-            if request.cloud is not None and hasattr(backend, "set_cloud"):
+            if request.cloud is not None and backend is not None and hasattr(backend, "set_cloud"):
                 backend.set_cloud(request.cloud)
             return planner.plan(request.q, request.goal, request.scene)
 
@@ -133,6 +133,7 @@ class ThreadedPlanRunner:
                 if self._closed:
                     return
                 request, self._pending, self._running = self._pending, None, True
+            assert request is not None  # the wait ends on a request or on close
             outcome = _run(self._fn, request)
             with self._cv:
                 self._done, self._running = outcome, False

@@ -87,7 +87,7 @@ class SceneChecker(StateValidity):
         maybe = gap <= self.links.sphere_radii[:, None] + self._radii[None] + self._padding
         hits: list[str] = []
         for k in np.flatnonzero(maybe.any(axis=1)):
-            if self._link_hits(poses[k], k, np.flatnonzero(maybe[k])):
+            if self._link_hits(poses[k], int(k), np.flatnonzero(maybe[k])):
                 hits.append(self.links.names[k])
                 if first_only:
                     break

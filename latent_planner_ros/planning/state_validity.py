@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from latent_planner_ros.robot.collision import CollisionChecker
 from latent_planner_ros.robot.limits import Q_MAX, Q_MIN
 
 
@@ -13,6 +14,14 @@ class StateValidity:
 
     obstacle_hit = "touches an obstacle"
     """how a link's obstacle contact is reported (after the link's name)"""
+    checks: int
+    """configurations checked so far (set by the checker)"""
+    self_checker: CollisionChecker
+    """self and table collision (set by the checker)"""
+
+    def colliding_links(self, q: np.ndarray, first_only: bool = False) -> list[str]:
+        """Names of the links of q (7,) [rad] touching an obstacle (the first only if first_only)."""
+        raise NotImplementedError
 
     def invalid_reason(self, q: np.ndarray) -> str | None:
         """None if q (7,) [rad] is valid, else the first reason found ("self-collision", ...)."""

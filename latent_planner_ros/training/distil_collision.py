@@ -77,7 +77,9 @@ def _load_pair(teacher: str | None, student_config, threads: int) -> tuple[Colli
     return CollisionPredictor.load(teacher), CollisionNet(student_config)
 
 
-def _scene_task(pair, family: str, seed: int, index: int, per_scene: int) -> tuple[torch.Tensor, torch.Tensor]:
+def _scene_task(
+    pair: tuple[CollisionPredictor, CollisionNet], family: str, seed: int, index: int, per_scene: int
+) -> tuple[torch.Tensor, torch.Tensor]:
     return scene_samples(*pair, family, seed, index, per_scene)
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import shlex
 import sys
 import time
@@ -97,7 +98,9 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, TrainCollisionConfi
             p.add_argument(f"--{f.name.replace('_', '-')}", type=type(value), default=value)
     args = p.parse_args(argv)
     config = TrainCollisionConfig(**{f.name: getattr(args, f.name) for f in fields(TrainCollisionConfig)})
-    config.point_keep = tuple(config.point_keep)
+    config.point_keep = (config.point_keep[0], config.point_keep[1])  # argparse gives a list
+    if (args.minutes is not None and not args.minutes > 0) or (args.iterations is not None and args.iterations < 1):
+        p.error("--minutes and --iterations must be positive")
     if args.minutes is None and args.iterations is None:
         args.minutes = 60.0
     return args, config
@@ -214,7 +217,7 @@ def train(args: argparse.Namespace, config: TrainCollisionConfig, argv: list[str
         ),  # fmt: skip
         "camera": {"intrinsics": CameraConfig().intrinsics.__dict__},
     }
-    budget_s = None if args.minutes is None else args.minutes * 60.0
+    budget_s = math.inf if args.minutes is None else args.minutes * 60.0  # no time limit under --iterations
     total = args.iterations
 
     def progress() -> float:
@@ -230,7 +233,8 @@ def train(args: argparse.Namespace, config: TrainCollisionConfig, argv: list[str
         dynamic_ncols=True,
         mininterval=0.5 if sys.stderr.isatty() else 30.0,
     )
-    metrics, last, ema = None, {}, {}
+    metrics, last = None, {}
+    ema: dict[str, float] = {}
     t_prev = time.monotonic()
     while progress() < 1.0:
         lr = lr_at(progress())

@@ -215,6 +215,8 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, TrainVaeConfig]:
     args = p.parse_args(argv)
     config = TrainVaeConfig(**{f.name: getattr(args, f.name) for f in fields(TrainVaeConfig)})
     VaeConfig(config.decoder, config.hidden, config.layers, config.latent)  # validates
+    if (args.minutes is not None and not args.minutes > 0) or (args.iterations is not None and args.iterations < 1):
+        p.error("--minutes and --iterations must be positive")
     if args.minutes is None and args.iterations is None:
         args.minutes = 60.0
     return args, config
@@ -238,7 +240,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"[train vae] resumed at iteration {trainer.iteration} ({trainer.elapsed / 60:.1f} min)")
     else:
         trainer.init_normalisation()
-    budget_s = None if args.minutes is None else args.minutes * 60.0
+    budget_s = math.inf if args.minutes is None else args.minutes * 60.0  # no time limit under --iterations
     total = args.iterations if args.iterations else None
     bar = tqdm(
         total=total or int(budget_s),
