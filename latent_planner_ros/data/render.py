@@ -42,12 +42,12 @@ def render_depth(scene: Scene, pose: np.ndarray, intrinsics: CameraIntrinsics, t
 
     v, f = scene_triangles(scene, table)
     rc = o3d.t.geometry.RaycastingScene()
-    rc.add_triangles(o3d.core.Tensor(v.astype(np.float32)), o3d.core.Tensor(f.astype(np.uint32)))
+    rc.add_triangles(o3d.core.Tensor.from_numpy(v.astype(np.float32)), o3d.core.Tensor.from_numpy(f.astype(np.uint32)))
     dirs_cam = intrinsics.ray_directions()  # (H, W, 3), unit z
     dirs = dirs_cam @ pose[:3, :3].T
     origins = np.broadcast_to(pose[:3, 3], dirs.shape)
     rays = np.concatenate([origins, dirs], -1).astype(np.float32)
-    t = rc.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy()  # in units of the (unit-z) direction = depth
+    t = rc.cast_rays(o3d.core.Tensor.from_numpy(rays))["t_hit"].numpy()  # in units of the (unit-z) direction = depth
     return t.astype(np.float32)
 
 

@@ -103,7 +103,8 @@ def clutter_viewpoint(
 
     corners = np.concatenate([triangle_mesh(o)[0] for o in targets])
     centre = (corners.min(0) + corners.max(0)) / 2
-    config = replace(CameraConfig(), target=tuple(float(v) for v in centre), target_jitter=0.03)
+    look = (float(centre[0]), float(centre[1]), float(centre[2]))
+    config = replace(CameraConfig(), target=look, target_jitter=0.03)
     for _ in range(20):
         pose = sample_camera_pose(rng, config)
         eye, target = pose[:3, 3], pose[:3, 3] + pose[:3, 2]
