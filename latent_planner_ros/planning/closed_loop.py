@@ -361,9 +361,11 @@ class ClosedLoopController:
             if outcome is not None:
                 return outcome
         t0 = time.perf_counter()
+        chased = self.chased_goal()
+        assert chased is not None  # self.goal is set
         out = self.planner.step(
             self._q,
-            self.chased_goal(),
+            chased,
             self._scene if use_scene else None,
             dt=1.0 / cfg.rate_hz,
             max_iterations=cfg.max_iterations_per_tick,
@@ -402,27 +404,32 @@ class ClosedLoopController:
     def _follow(self, now: float, hold: np.ndarray) -> TickOutcome | None:
         """The tick's outcome from the background plan: the next hard-checked command along its path, or a hold
         while the plan of a new goal is awaited; None = step locally (see planning/plan_follow.py)."""
-        f, use_scene = self.follower, self.planner.config.use_collision
+        f, q, goal, use_scene = self.follower, self._q, self.goal, self.planner.config.use_collision
+        assert f is not None and q is not None and goal is not None  # tick follows only with all three
         scene = self._scene if use_scene else None
         speed = float(np.linalg.norm(self.goal_velocity()))
         cloud = self._raw_cloud if self.grasp is not None else self._cloud  # plan_grasp sets the target aside itself
-        f.update(now, self._q, self.goal, speed, now - self._best_time, scene, cloud, self.grasp)
+        f.update(now, q, goal, speed, now - self._best_time, scene, cloud, self.grasp)
         t0 = time.perf_counter()
-        target = f.command(self._q, self.goal)
+        target = f.command(q, goal)
         if target is not None:
             if use_scene and scene is not self._checked_scene:  # (a geometric scene costs a distance field)
                 self.planner.backend.set_scene(scene)
                 self._checked_scene = scene
-            if not self.planner.segment_free(self._q, target, f.escape_from):
+            if not self.planner.segment_free(q, target, f.escape_from):
                 f.drop("its next command collides in the newest scene")
                 target = None
         if target is None:
             if speed <= STILL_GOAL_MPS:  # a still goal already within tolerance: stay (local steps would wander)
-                at_goal, pos_err, ori_err = self.planner.arm_at_goal(self._q, self.goal)
+                at_goal, pos_err, ori_err = self.planner.arm_at_goal(q, goal)
                 if at_goal:
                     self.planner.reset()
                     self._best_err, self._best_time = min(pos_err, self._best_err), now
-                    values = {"pos_err_m": pos_err, "arm_pos_err_m": pos_err, "ori_err_deg": float(np.degrees(ori_err))}
+                    values: dict[str, Any] = {
+                        "pos_err_m": pos_err,
+                        "arm_pos_err_m": pos_err,
+                        "ori_err_deg": float(np.degrees(ori_err)),
+                    }
                     return TickOutcome(hold, "reached", "reached", OK, {**values, "command_source": "hold"})
             if f.waiting(now) and speed <= STILL_GOAL_MPS:  # a goal seen moving is chased at once
                 self._best_time = now  # waiting for a plan is not a lack of progress
@@ -430,7 +437,7 @@ class ClosedLoopController:
                 return TickOutcome(hold, "holding", "holding: waiting for the background plan", OK, values)
             return None
         self.planner.reset()  # local steps re-encode from wherever the path leaves the arm
-        reached, pos_err, ori_err = self.planner.arm_at_goal(self._q, self.goal)
+        reached, pos_err, ori_err = self.planner.arm_at_goal(q, goal)
         values = {
             "pos_err_m": pos_err,
             "arm_pos_err_m": pos_err,
@@ -439,7 +446,7 @@ class ClosedLoopController:
             "command_source": "plan",
             "plan_note": f.note,
         }
-        self._best_err, self._best_time, self._best_goal = min(pos_err, self._best_err), now, self.goal.position.copy()
+        self._best_err, self._best_time, self._best_goal = min(pos_err, self._best_err), now, goal.position.copy()
         evasion = self._evasion(now, values, command=target)
         if evasion is not None:
             f.drop("evading an approaching obstacle")
@@ -450,7 +457,8 @@ class ClosedLoopController:
     def _servo(self, now: float) -> TickOutcome | None:
         """The tick's command by IK towards the led goal when the TCP is within servo_radius_m of it (see
         ClosedLoopConfig.servo_radius_m), or None (a latent step instead)."""
-        cfg, goal, q = self.config, self.chased_goal(), self._q
+        cfg, goal, q, own_goal = self.config, self.chased_goal(), self._q, self.goal
+        assert goal is not None and q is not None and own_goal is not None  # tick servos only with both
         t0 = time.perf_counter()
         _, pos_err, _ = self.planner.arm_at_goal(q, goal)
         if pos_err > cfg.servo_radius_m:
@@ -474,7 +482,7 @@ class ClosedLoopController:
         if not self.planner.segment_free(q, command):
             return None
         self.planner.reset()  # the next latent step re-encodes wherever the servo left the arm
-        reached, arm_err, ori_err = self.planner.arm_at_goal(q, self.goal)
+        reached, arm_err, ori_err = self.planner.arm_at_goal(q, own_goal)
         values = {
             "pos_err_m": arm_err,
             "arm_pos_err_m": arm_err,
@@ -482,7 +490,7 @@ class ClosedLoopController:
             "tick_ms": (time.perf_counter() - t0) * 1000.0,
             "command_source": "servo",
         }
-        self._best_err, self._best_time, self._best_goal = min(arm_err, self._best_err), now, self.goal.position.copy()
+        self._best_err, self._best_time, self._best_goal = min(arm_err, self._best_err), now, own_goal.position.copy()
         evasion = self._evasion(now, values, command=command)
         if evasion is not None:
             return evasion
@@ -492,6 +500,7 @@ class ClosedLoopController:
         """The tick at a grasp goal without a path to follow: hold (a grasp is approached along background plans
         only); the goal is given up after no_progress_s without one."""
         cfg, f = self.config, self.follower
+        assert f is not None  # a grasp goal is taken only with a follower
         values = {"command_source": "hold", "plan_note": f.note, "grasp": self.grasp_note}
         if now - self._best_time > cfg.no_progress_s:
             self._failed = (
@@ -513,13 +522,15 @@ class ClosedLoopController:
             return None
         if fresh_cloud and now - self._evader.newest_time > cfg.stale_scene_s:
             return None
-        clearance, speed = self._evader.threat(self._q)
+        q = self._q
+        assert q is not None  # tick evades only with a joint state
+        clearance, speed = self._evader.threat(q)
         values.update(clearance_m=clearance, approach_mps=speed)
         if clearance >= cfg.evade_margin_m or speed < cfg.evade_approach_mps:
             return None
         if command is not None and self._evader.least_clearance(command) > clearance:
             return None
-        q_new = self._evader.retreat(self._q, self.planner.config.speed_scale * V_MAX / cfg.rate_hz)
+        q_new = self._evader.retreat(q, self.planner.config.speed_scale * V_MAX / cfg.rate_hz)
         if q_new is None:
             return None
         self.planner.reset()  # re-encode where the arm went, with fresh loss weights

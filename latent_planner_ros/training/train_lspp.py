@@ -17,6 +17,7 @@ import shlex
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -81,8 +82,8 @@ def latents(vae, q: np.ndarray) -> torch.Tensor:
 
 def evaluate(model: CylinderClassifier, z: torch.Tensor, o: torch.Tensor, c: np.ndarray) -> dict:
     with torch.no_grad():
-        p = torch.sigmoid(torch.cat([model(zi, oi) for zi, oi in zip(z.split(8192), o.split(8192), strict=True)]))
-    p = p.numpy()
+        logits = torch.cat([model(zi, oi) for zi, oi in zip(z.split(8192), o.split(8192), strict=True)])
+        p = torch.sigmoid(logits).numpy()
     prec, rec = precision_recall(p, c, 0.5)
     loss = float(-np.mean(np.where(c, np.log(np.clip(p, 1e-7, 1)), np.log(np.clip(1 - p, 1e-7, 1)))))
     return {"val_loss": loss, "val_acc": float(np.mean((p >= 0.5) == c)), "val_auroc": auroc(p, c),
@@ -136,7 +137,7 @@ def train(args: argparse.Namespace, argv: list[str]) -> int:
     model.set_normalisation(o_tr.mean(0), o_tr.std(0))
     opt = torch.optim.Adam(model.parameters(), lr=args.lr)
     args.out.mkdir(parents=True, exist_ok=True)
-    state = {"iteration": 0, "elapsed_s": 0.0, "best": -math.inf, "history": []}
+    state: dict[str, Any] = {"iteration": 0, "elapsed_s": 0.0, "best": -math.inf, "history": []}
     if args.resume and (args.out / "last.safetensors").is_file():
         tensors, state = load_checkpoint(args.out / "last")
         load_state_into(model, {k[6:]: v for k, v in tensors.items() if k.startswith("model.")}, args.out / "last")
