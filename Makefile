@@ -24,6 +24,7 @@ lint: setup
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/lint-imports
+	$(VENV)/bin/mypy
 
 clean:
-	rm -rf build install log .pytest_cache .ruff_cache
+	rm -rf build install log .pytest_cache .ruff_cache .mypy_cache
