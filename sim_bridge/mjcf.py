@@ -72,7 +72,8 @@ def load_scene_spec() -> mujoco.MjSpec:
 
 
 def set_camera(spec: mujoco.MjSpec, name: str, config: CameraConfig) -> None:
-    """Place camera `name` at config.position looking at config.look_at with config.fovy."""
+    """Place camera `name` at config.position looking at config.look_at with config.fovy (its orientation: the
+    optical pose of data/camera.py in MuJoCo's camera frame, config.rotation())."""
     camera = spec.camera(name)
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, config.rotation().flatten())
