@@ -122,6 +122,9 @@ def declared_interfaces(node: str) -> set[tuple[str, str, str]]:
             cls, name = call.args[0], _interface_name(node, call, attr)
             assert isinstance(cls, ast.Name) and cls.id in packages, f"{node}: line {call.lineno}: unknown type"
             out.add((kind, name, f"{packages[cls.id]}/{cls.id}"))
+    for call in ast.walk(tree):  # nodes/qos.py: a cloud subscription with its publishers' reliability
+        if isinstance(call, ast.Call) and isinstance(call.func, ast.Name) and call.func.id == "CloudSubscription":
+            out.add(("subscribes", _interface_name(node, call, "CloudSubscription"), "sensor_msgs/PointCloud2"))
     return out
 
 

@@ -213,7 +213,7 @@ class PlannerFuzz(NodeFuzz):
     def obstacles(self, msg) -> str:
         cfg = self.node.config
         update, reason = refusal(
-            apply_marker_array, msg, self.node._cylinders, cfg.obstacle_tilt_tol_deg, cfg.obstacle_z_tol_m
+            apply_marker_array, msg, self.node._cylinders, cfg.tuning.obstacle_tilt_tol_deg, cfg.tuning.obstacle_z_tol_m
         )
         _, logs = self.call(self.node._on_obstacles, msg)
         logs += self._tick()

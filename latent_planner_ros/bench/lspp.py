@@ -125,25 +125,28 @@ def _scenarios(args, counts: list[int], executor: Executor) -> dict[int, list[Ls
 
 
 def parse_overrides(items: list[str]) -> dict:
-    """["n_seeds=8", "backtrace_keep=0.5", "self_check=false"] -> checked AmpLsConfig overrides of the lspp row;
-    ValueError naming the bad item (not FIELD=VALUE, an unknown field, or a value the config refuses)."""
-    import dataclasses
+    """["search.n_seeds=8", "checks.backtrace_keep=0.5", "lr=0.03"] -> checked AmpLsConfig overrides of the lspp
+    row (dotted: a part's field, amp_ls/config.py); ValueError naming the bad item (not FIELD=VALUE, an unknown
+    field, or a value the config refuses)."""
     import json
 
-    from latent_planner_ros.planning.lspp import lspp_config
+    from latent_planner_ros.planning.amp_ls import presets
+    from latent_planner_ros.planning.amp_ls.config import with_overrides
 
-    fields = {f.name for f in dataclasses.fields(lspp_config())}
     out = {}
     for item in items:
         name, sep, text = item.partition("=")
-        if not sep or name.strip() not in fields:
+        if not sep:
             raise ValueError(f"--lspp-set {item!r}: expected FIELD=VALUE with FIELD an AmpLsConfig field")
         try:
             value = json.loads(text)
         except json.JSONDecodeError:
             value = text
         out[name.strip()] = value
-    lspp_config(**out)  # raises ValueError naming what the config refuses
+    try:
+        with_overrides(presets.lspp(), out)  # raises ValueError naming what the config refuses
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"--lspp-set: {err}") from None
     return out
 
 
@@ -162,7 +165,8 @@ def main(argv: list[str]) -> int:
         action="append",
         default=[],
         metavar="FIELD=VALUE",
-        help="change one planner option of the lspp row (repeatable), e.g. --lspp-set n_seeds=8 --lspp-set restarts=48",
+        help="change one planner option of the lspp row (repeatable; dotted: a part's field), "
+        "e.g. --lspp-set search.n_seeds=8 --lspp-set search.restarts=48",
     )
     args = p.parse_args(argv)
     try:

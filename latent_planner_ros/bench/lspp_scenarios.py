@@ -99,13 +99,12 @@ def _draw_count(k: int, n: int, seed: int, vae=None, progress: bool = False) -> 
     import torch
 
     from latent_planner_ros.models.vae_io import load_vae
-    from latent_planner_ros.planning.amp_ls import AmpLs
+    from latent_planner_ros.planning.amp_ls import AmpLs, presets
     from latent_planner_ros.planning.collision_backend import NoCollision
-    from latent_planner_ros.planning.lspp import lspp_seed_config
 
     torch.set_num_threads(1)
     no_col = AmpLs(
-        vae if vae is not None else load_vae()[0], NoCollision(), lspp_seed_config(use_collision=False), seed=seed
+        vae if vae is not None else load_vae()[0], NoCollision(), presets.lspp_seed(use_collision=False), seed=seed
     )
     gen = ScenarioGenerator(no_col, seed=seed * 100 + k)
     return [gen.draw(k) for _ in tqdm(range(n), desc=f"scenarios, {k} cylinders", disable=not progress)]

@@ -20,8 +20,7 @@ from latent_planner_ros.bench.report import bench_parser, write_report
 from latent_planner_ros.evaluation.stats import wilson_ci95
 from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.vae_io import load_vae
-from latent_planner_ros.planning.amp_ls import AmpLs
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls import AmpLs, AmpLsConfig
 from latent_planner_ros.planning.backends import make_backend
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig, ClosedLoopController
 from latent_planner_ros.planning.plan_runner import DeferredPlanRunner, planning_function
@@ -70,7 +69,7 @@ def _scene(planner: AmpLs, pr: Problem):
     if not planner.config.use_collision:
         return None
     backend.set_scene(pr.cloud, pr.origin)
-    return backend.embedding if getattr(backend, "mode", "") == "learned" else pr.cloud
+    return backend.embedding if backend.mode == "learned" else pr.cloud
 
 
 def closed_loop(planner: AmpLs, problems: list[Problem], label: str, ticks: int, loop: ClosedLoopConfig) -> dict:

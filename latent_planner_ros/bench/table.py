@@ -36,6 +36,7 @@ from latent_planner_ros.bench.scenarios import DEFAULT_SET, ScenarioError, Scena
 from latent_planner_ros.bench.table_planners import AMP_LS_VARIANTS, amp_ls_config, budgets, ompl_config, parse_planners
 from latent_planner_ros.bench.table_report import figures, markdown, summarise
 from latent_planner_ros.data.camera import CameraConfig, planning_crop, sample_camera_pose
+from latent_planner_ros.planning.collision_backend import BackendDefaults
 
 POS_TOL = 0.01
 """position tolerance of success [m] (the seed's 1 cm)"""
@@ -85,7 +86,7 @@ def _view_cloud(
     return crop(depth_to_points(depth, pose, cfg.intrinsics), *planning_crop()), pose[:3, 3].copy()
 
 
-class ForeignLatentBackend:
+class ForeignLatentBackend(BackendDefaults):
     """The learned backend for a planner whose VAE is not the one the collision predictor reads.
 
     The predictor takes the latent of its own VAE: p_collision(q, z) re-encodes the decoded q with that VAE
@@ -105,7 +106,13 @@ class ForeignLatentBackend:
     def mode(self) -> str:
         return self.inner.mode
 
-    def p_collision(self, q, z):
+    def set_cloud(self, cloud: np.ndarray) -> None:
+        self.inner.set_cloud(cloud)
+
+    def geometric_only(self):
+        return self.inner.geometric_only()
+
+    def p_collision(self, q, z, frames=None):
         own = self.inner.predictor.latent_of(q.float())
         return self.inner.p_collision(q, own).to(z.dtype)
 

@@ -12,13 +12,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls import AmpLsConfig
+from latent_planner_ros.planning.amp_ls.config import with_overrides
 from latent_planner_ros.planning.ompl_baseline_config import PLANNERS, OmplConfig
 
 
 @dataclass(frozen=True)
 class AmpLsVariant:
-    """An AMP-LS row: config overrides over AmpLsConfig(), the VAE checkpoint, and what it measures."""
+    """An AMP-LS row: config overrides over AmpLsConfig() (as amp_ls.config.with_overrides takes them: "lr",
+    "search.n_seeds", "finish": None), the VAE checkpoint, and what it measures."""
 
     what: str
     overrides: dict = field(default_factory=dict)
@@ -33,12 +35,12 @@ AMP_LS_VARIANTS: dict[str, AmpLsVariant] = {
     "amp_ls_no_col": AmpLsVariant("seed ablation: no collision loss and no explicit check", {"use_collision": False}),
     "amp_ls_no_prior": AmpLsVariant("seed ablation: no prior loss", {"use_prior": False}),
     "amp_ls_single_seed": AmpLsVariant(
-        "beyond the seed (b) off: one latent trajectory, no restarts", {"n_seeds": 1, "restarts": 0}
+        "beyond the seed (b) off: one latent trajectory, no restarts", {"search.n_seeds": 1, "search.restarts": 0}
     ),
     "amp_ls_plain_vae": AmpLsVariant(
         "beyond the seed (a) off: the seed's plain VAE, target losses on the decoded pose (the learned "
         "predictor reads the latent of its own VAE, re-encoded from the decoded q)",
-        {"target_on_fk": False},
+        {"search.target_on_fk": False},
         vae="vae_plain",
     ),
     "amp_ls_geometric": AmpLsVariant(
@@ -46,30 +48,30 @@ AMP_LS_VARIANTS: dict[str, AmpLsVariant] = {
         backend="geometric",
     ),
     "amp_ls_no_self_check": AmpLsVariant(
-        "beyond the seed off: no exact self/table check of interpolated steps", {"self_check": False}
+        "beyond the seed off: no exact self/table check of interpolated steps", {"checks.self_check": False}
     ),
     "amp_ls_eager_check": AmpLsVariant(
         "beyond the seed off: every accepted step checked as it is accepted (the seed), not lazily",
-        {"lazy_check": False},
+        {"checks.lazy": False},
     ),
     "amp_ls_no_finish": AmpLsVariant(
-        "beyond the seed off: no exact IK finish, the latent optimisation reaches alone", {"finish_radius_m": 0.0}
+        "beyond the seed off: no exact IK finish, the latent optimisation reaches alone", {"finish": None}
     ),
     "amp_ls_no_direct_first": AmpLsVariant(
         "beyond the seed off: no straight segment to an IK solution from the start before optimising",
-        {"direct_first": False},
+        {"finish.direct_first": False},
     ),
-    "amp_ls_no_shortcut": AmpLsVariant("beyond the seed off: no shortcutting of the path", {"shortcut": False}),
+    "amp_ls_no_shortcut": AmpLsVariant("beyond the seed off: no shortcutting of the path", {"plan.shortcut": False}),
     "amp_ls_no_escape": AmpLsVariant(
-        "beyond the seed off: a start refused by the hard check is not left (escape_rad 0)", {"escape_rad": 0.0}
+        "beyond the seed off: a start refused by the hard check is not left (escape_rad 0)", {"checks.escape_rad": 0.0}
     ),
     "amp_ls_no_guidance": AmpLsVariant(
-        "beyond the seed off: restarts keep the pose target (no IK goal configurations)", {"goal_guidance": 0}
+        "beyond the seed off: restarts keep the pose target (no IK goal configurations)", {"guidance": None}
     ),
-    "amp_ls_seed_lr": AmpLsVariant("the closed loop's step size (lr 0.06) for plans too", {"plan_lr": 0.06}),
+    "amp_ls_seed_lr": AmpLsVariant("the closed loop's step size (lr 0.06) for plans too", {"search.plan_lr": 0.06}),
     "amp_ls_no_rrt_escape": AmpLsVariant(
-        "beyond the seed off: no RRT escape when the latent search stalls (rrt_escape_budget_s 0)",
-        {"rrt_escape_budget_s": 0.0},
+        "beyond the seed off: no RRT escape when the latent search stalls (escape None)",
+        {"escape": None},
     ),
 }
 """AMP-LS rows of the table, in order."""
@@ -95,7 +97,7 @@ SEED_TABLE_I = {
 def amp_ls_config(name: str, backend: str) -> AmpLsConfig:
     """The AmpLsConfig of row `name` with the run's default collision backend `backend`."""
     v = AMP_LS_VARIANTS[name]
-    return AmpLsConfig(**{"collision_backend": v.backend or backend, **v.overrides})
+    return with_overrides(AmpLsConfig(collision_backend=v.backend or backend), v.overrides)
 
 
 def ompl_config(name: str, table: bool) -> OmplConfig:
@@ -120,10 +122,10 @@ def budgets() -> dict:
     return {
         "amp_ls": {
             "max_steps": a.max_steps,
-            "patience_steps": a.patience,
-            "n_seeds": a.n_seeds,
-            "rrt_escape_after_s": a.rrt_escape_after_s,
-            "rrt_escape_budget_s": a.rrt_escape_budget_s,
+            "patience_steps": a.search.patience,
+            "n_seeds": a.search.n_seeds,
+            "rrt_escape_after_s": a.escape.after_s if a.escape else None,
+            "rrt_escape_budget_s": a.escape.budget_s if a.escape else 0.0,
         },
         "rrtconnect": {"timeout_s": o.timeout_s},
         "lbkpiece": {"timeout_s": o.timeout_s},

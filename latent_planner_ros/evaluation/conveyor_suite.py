@@ -62,7 +62,7 @@ class SuitePlan:
 
 def configured_planner() -> tuple[str, str]:
     """(collision_backend, collision_checkpoint) of the planner's params file (dataclass defaults where absent)."""
-    from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+    from latent_planner_ros.planning.amp_ls import AmpLsConfig
 
     backend, checkpoint = AmpLsConfig().collision_backend, ""
     path = find_params_file("planner")

@@ -45,7 +45,7 @@ from latent_planner_ros.nodes.grasp_target_input import GraspTargetInput
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.ompl_planner_config import RANGES, READ_ONLY, OmplPlannerNodeConfig
-from latent_planner_ros.nodes.qos import CLOUD_QOS, RELIABLE_CLOUD_QOS, Deduplicated
+from latent_planner_ros.nodes.qos import CloudSubscription
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from latent_planner_ros.perception.frames import WORLD, path_to_world
 from latent_planner_ros.planning.goal import Goal
@@ -94,10 +94,10 @@ class OmplPlannerNode(Node):
         self.pub_diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.pub_plan_result = self.create_publisher(DiagnosticStatus, "~/plan_result", 10)
         self.create_subscription(JointState, "joint_states", self._on_joint_states, 10)
-        for cloud_topic in self.config.cloud_topics:
-            on_cloud = Deduplicated(partial(self._on_cloud, cloud_topic))  # nodes/qos.py: both profiles, once
-            self.create_subscription(PointCloud2, cloud_topic, on_cloud.best_effort, CLOUD_QOS)
-            self.create_subscription(PointCloud2, cloud_topic, on_cloud.reliable, RELIABLE_CLOUD_QOS)
+        self.cloud_subscriptions = [  # one per topic, its publishers' reliability (nodes/qos.py)
+            CloudSubscription(self, cloud_topic, partial(self._on_cloud, cloud_topic))
+            for cloud_topic in self.config.cloud_topics
+        ]
         self.create_service(GetPlan, "~/plan", self._on_plan)
         self.create_service(GetPlan, "~/plan_grasp", partial(self._on_plan, grasp=True))
         self.grasp_target = GraspTargetInput()

@@ -64,7 +64,7 @@ from latent_planner_ros.nodes.grasp_target_input import GraspTargetInput
 from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
-from latent_planner_ros.nodes.qos import CLOUD_QOS, RELIABLE_CLOUD_QOS, Deduplicated
+from latent_planner_ros.nodes.qos import CloudSubscription
 from latent_planner_ros.nodes.rebuild_worker import RebuildWorker
 from latent_planner_ros.nodes.segment_chain import SegmentChain
 from latent_planner_ros.nodes.service_thread import ServiceThread
@@ -176,10 +176,10 @@ class PlannerNode(Node):
         self.create_subscription(PoseStamped, "grasp_pose", self._on_grasp_goal, 10)
         self.grasp_target = GraspTargetInput()
         self.create_subscription(Marker, "grasp_target", self._on_grasp_target, 10)
-        for cloud_topic in self.config.cloud_topics:
-            on_cloud = Deduplicated(partial(self._on_cloud, cloud_topic))  # nodes/qos.py: both profiles, once
-            self.create_subscription(PointCloud2, cloud_topic, on_cloud.best_effort, CLOUD_QOS)
-            self.create_subscription(PointCloud2, cloud_topic, on_cloud.reliable, RELIABLE_CLOUD_QOS)
+        self.cloud_subscriptions = [  # one per topic, its publishers' reliability (nodes/qos.py)
+            CloudSubscription(self, cloud_topic, partial(self._on_cloud, cloud_topic))
+            for cloud_topic in self.config.cloud_topics
+        ]
         self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, 10)
         if self.config.amp_ls.collision_backend == "learned":
             self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2)
@@ -210,15 +210,17 @@ class PlannerNode(Node):
         and ~/plan, on a backend of its own); CheckpointError for a missing or bad checkpoint."""
 
         def amp_ls() -> AmpLs:
-            return AmpLs(vae, make_backend(config.amp_ls.collision_backend, config.collision_checkpoint), config.amp_ls)
+            backend = make_backend(config.amp_ls.collision_backend, config.collision_checkpoint)
+            return AmpLs(vae, backend, config.amp_ls_config())
 
         plan_planner, stepping = amp_ls(), amp_ls()
-        lspp = make_lspp(vae, config.lspp, config.lspp_checkpoint or None, config.lspp_check)
+        lspp = make_lspp(vae, config.lspp_config(), config.lspp_checkpoint or None, config.lspp_check)
         for planner in (stepping, lspp, plan_planner):
             planner.warm_up()
         runner = ThreadedPlanRunner(planning_function(plan_planner, self._plan_lock))
         modes = PlannerModes(
-            ClosedLoopController(stepping, config.closed_loop, runner), ClosedLoopController(lspp, config.closed_loop)
+            ClosedLoopController(stepping, config.closed_loop_config(), runner),
+            ClosedLoopController(lspp, config.closed_loop_config()),
         )
         modes.set_enabled(config.enabled)
         return modes, plan_planner
@@ -386,8 +388,7 @@ class PlannerNode(Node):
         if backend.name == "geometric":
             controller.set_scene(obstacles, received)
             return
-        if hasattr(backend, "set_cloud"):  # learned: the raw cloud feeds the hard check of each step
-            backend.set_cloud(obstacles)
+        backend.set_cloud(obstacles)  # learned: the raw cloud feeds the hard check of each step
 
     @_locked
     def _on_embedding(self, msg: PointCloud2) -> None:
@@ -405,7 +406,9 @@ class PlannerNode(Node):
         cfg = self.config
         before = self.modes.describe()
         try:
-            update = apply_marker_array(msg, self._cylinders, cfg.obstacle_tilt_tol_deg, cfg.obstacle_z_tol_m)
+            update = apply_marker_array(
+                msg, self._cylinders, cfg.tuning.obstacle_tilt_tol_deg, cfg.tuning.obstacle_z_tol_m
+            )
             cylinders = cylinders_to_array(update.cylinders)
             dropped = self.modes.set_cylinders(cylinders, self._now())
         except (AdapterError, ValueError) as err:
@@ -541,7 +544,7 @@ class PlannerNode(Node):
             if planner.config.use_collision and scene is None:
                 return "no scene received yet", None
             cloud = controller.raw_cloud  # the whole cloud: a grasp goal of the closed loop sets nothing aside here
-            if scene is not None and not lspp and getattr(planner.backend, "name", "") == "geometric":
+            if scene is not None and not lspp and planner.backend.name == "geometric":
                 scene = cloud
             cfg = self.config
             spec = self.grasp_target.spec(cfg.grasp_approach_m, cfg.grasp_target_radius_m) if grasp else None
@@ -598,7 +601,7 @@ class PlannerNode(Node):
         """{link: p(collision)} the active backend gives the measured joint state ({} without one, or in LSPP)."""
         backend = self.modes.active.planner.backend
         q = self.modes.active.fresh_joint_state(self._now())
-        if q is None or not hasattr(backend, "link_p_collision"):
+        if q is None:
             return {}
         return backend.link_p_collision(q)
 
@@ -609,7 +612,7 @@ class PlannerNode(Node):
         values = {
             "state": o.state,
             "mode": self.modes.describe(),
-            "collision_backend": getattr(self.modes.active.planner.backend, "mode", ""),
+            "collision_backend": self.modes.active.planner.backend.mode,
             "obstacles_note": self._obstacle_notes,
             "last_error": self._last_error,
             "cloud_points_in": points_in,

@@ -1,21 +1,24 @@
-"""QoS of the suite's point-cloud subscriptions.
+"""QoS of the suite's point-cloud subscriptions: one subscription per cloud topic, with its publishers' reliability.
 
 Depth cameras publish their clouds with the sensor-data profile (BEST_EFFORT, as realsense2_camera and most
 drivers do) or RELIABLE (the sim). A BEST_EFFORT subscription matches both, a RELIABLE one only the latter; but a
 BEST_EFFORT subscription loses a large cloud from a RELIABLE publisher whenever one of its many fragments is lost
-(a 2-million-point cloud, 24 MB, never arrived here). So every node subscribes to each cloud topic twice, as sensor
-data and as RELIABLE, and `Deduplicated` passes each message on once: a RELIABLE camera's clouds come through the
-RELIABLE subscription whatever their size, a BEST_EFFORT camera's through the other. Only the newest cloud is
-used, so the depth stays small. Other topics keep the default profile (RELIABLE, VOLATILE, depth 10),
-execution_owner and robot_description are TRANSIENT_LOCAL (nodes/execution_owner.py, nodes/robot_info.py).
+(a 2-million-point cloud, 24 MB, never arrived here). So each node's `CloudSubscription` asks the graph which
+publishers the topic has (as rosbag2's adaptive QoS does) and subscribes RELIABLE when every publisher offers
+RELIABLE, BEST_EFFORT otherwise (before any publisher is seen, too); it looks again every second and re-subscribes
+when that changes. Only the newest cloud is used, so the depth stays small. Other topics keep the default profile
+(RELIABLE, VOLATILE, depth 10), execution_owner and robot_description are TRANSIENT_LOCAL (nodes/execution_owner.py,
+nodes/robot_info.py).
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import PointCloud2
 
 CLOUD_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
@@ -23,7 +26,8 @@ CLOUD_QOS = QoSProfile(
     reliability=ReliabilityPolicy.BEST_EFFORT,
     durability=DurabilityPolicy.VOLATILE,
 )
-"""Subscriptions to camera clouds: sensor data (BEST_EFFORT, VOLATILE), the two newest kept."""
+"""Cloud subscriptions with a BEST_EFFORT publisher (or none yet): sensor data (BEST_EFFORT, VOLATILE), the two
+newest kept."""
 
 RELIABLE_CLOUD_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
@@ -31,33 +35,43 @@ RELIABLE_CLOUD_QOS = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
-"""The second subscription to each cloud topic: RELIABLE, for RELIABLE publishers' large clouds."""
+"""Cloud subscriptions whose publishers are all RELIABLE: their large clouds arrive whole."""
 
-DUPLICATE_WINDOW_S = 0.02
-"""[s] a message with the same stamp and size as the last one passed on, arriving through the other subscription
-within this time, is that message's second copy"""
+GRAPH_PERIOD_S = 1.0
+"""[s] (steady time) how often a CloudSubscription looks at the topic's publishers"""
 
 
-class Deduplicated:
-    """`callback(msg)` once per cloud message received through the two subscriptions of one topic (`reliable`,
-    `best_effort`): the second copy of a message a RELIABLE publisher sent to both is dropped (same stamp and
-    size, through the other subscription, within DUPLICATE_WINDOW_S)."""
+def profile_for(reliabilities: list) -> QoSProfile:
+    """The subscription profile for publishers of these ReliabilityPolicy values: RELIABLE when there is at least
+    one and every one is RELIABLE, else the sensor-data profile (it matches every publisher)."""
+    if reliabilities and all(r == ReliabilityPolicy.RELIABLE for r in reliabilities):
+        return RELIABLE_CLOUD_QOS
+    return CLOUD_QOS
 
-    def __init__(self, callback: Callable):
-        self.callback = callback
-        self._last: tuple | None = None  # (key, subscription, monotonic time) of the last message passed on
 
-    def _take(self, which: str, msg) -> None:
-        key = (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.width, msg.height, len(msg.data))
-        now = time.monotonic()
-        last = self._last
-        if last is not None and last[0] == key and last[1] != which and now - last[2] < DUPLICATE_WINDOW_S:
+class CloudSubscription:
+    """A PointCloud2 subscription to `topic` on `node` whose reliability follows the topic's publishers.
+
+    Args:
+        node: the subscribing node (its executor runs the graph check, on a steady-time timer).
+        topic: the cloud topic (relative names are resolved as the node resolves them).
+        callback: called with each PointCloud2.
+    """
+
+    def __init__(self, node: Node, topic: str, callback: Callable[[PointCloud2], None]):
+        self.node, self.topic, self.callback = node, topic, callback
+        self.profile: QoSProfile | None = None
+        self.subscription = None
+        self.update()
+        self._timer = node.create_timer(GRAPH_PERIOD_S, self.update, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def update(self) -> None:
+        """Subscribe (again) if the topic's publishers call for another profile than the current one."""
+        infos = self.node.get_publishers_info_by_topic(self.node.resolve_topic_name(self.topic))
+        wanted = profile_for([info.qos_profile.reliability for info in infos])
+        if wanted is self.profile:
             return
-        self._last = (key, which, now)
-        self.callback(msg)
-
-    def reliable(self, msg) -> None:
-        self._take("reliable", msg)
-
-    def best_effort(self, msg) -> None:
-        self._take("best_effort", msg)
+        if self.subscription is not None:
+            self.node.destroy_subscription(self.subscription)
+        self.subscription = self.node.create_subscription(PointCloud2, self.topic, self.callback, wanted)
+        self.profile = wanted

@@ -38,7 +38,7 @@ from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.collision_io import load_scene_encoder
 from latent_planner_ros.models.scene_encoder import SceneEncoder
 from latent_planner_ros.nodes.node_main import run_node
-from latent_planner_ros.nodes.qos import CLOUD_QOS, RELIABLE_CLOUD_QOS, Deduplicated
+from latent_planner_ros.nodes.qos import CloudSubscription
 from latent_planner_ros.nodes.scene_encoder_config import RANGES, READ_ONLY, SceneEncoderNodeConfig
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused, pose_topic_of
 from latent_planner_ros.perception.scene_input import SceneInputMonitor, prepare_cloud
@@ -66,10 +66,11 @@ class SceneEncoderNode(Node):
         self.pub_embedding = self.create_publisher(PointCloud2, "scene_embedding", 2)
         self.pub_status = self.create_publisher(DiagnosticArray, "~/status", 10)
         self.pub_diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.cloud_subscriptions = [  # one per topic, its publishers' reliability (nodes/qos.py)
+            CloudSubscription(self, cloud_topic, partial(self._on_cloud, cloud_topic))
+            for cloud_topic in cfg.cloud_topics
+        ]
         for cloud_topic in cfg.cloud_topics:
-            on_cloud = Deduplicated(partial(self._on_cloud, cloud_topic))  # nodes/qos.py: both profiles, once
-            self.create_subscription(PointCloud2, cloud_topic, on_cloud.best_effort, CLOUD_QOS)
-            self.create_subscription(PointCloud2, cloud_topic, on_cloud.reliable, RELIABLE_CLOUD_QOS)
             pose_topic = pose_topic_of(cloud_topic)
             self.create_subscription(PoseStamped, pose_topic, partial(self._on_camera_pose, cloud_topic), 10)
         self._status_timer = self.create_timer(1.0 / self.config.status_rate_hz, self._publish_status)

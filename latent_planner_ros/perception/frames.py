@@ -67,7 +67,7 @@ class Transform:
         v = np.asarray(values, dtype=float).reshape(-1)
         if v.shape not in ((6,), (7,)) or not np.all(np.isfinite(v)):
             raise ValueError(f"expected x y z roll pitch yaw (6 finite numbers) or x y z qx qy qz qw (7), got {v}")
-        rotation = rpy_to_matrix(*v[3:]) if len(v) == 6 else quat_xyzw_to_matrix(v[3:])
+        rotation = rpy_to_matrix(*v[3:]) if len(v) == 6 else quat_xyzw_to_matrix(v[3:].tolist())
         return cls(rotation, v[:3].copy())
 
     @property

@@ -145,6 +145,7 @@ def split_target(
             mask[ok] = box.contains(pts[ok])
             why = "inside the given box"
         else:
+            assert radius is not None
             mask[ok] = np.linalg.norm(pts[ok] - position, axis=1) <= radius
             why = f"within the given radius {radius * 100:g} cm of the TCP"
         n = int(mask.sum())

@@ -17,11 +17,12 @@ import torch
 from latent_planner_ros.data.cylinders import cylinder_scene, validate_cylinders
 from latent_planner_ros.data.labels import CollisionLabeler
 from latent_planner_ros.models.cylinder_classifier import CylinderClassifier, load_classifier
+from latent_planner_ros.planning.collision_backend import BackendDefaults
 
 CHECKS = ("exact", "none")
 
 
-class CylinderBackend:
+class CylinderBackend(BackendDefaults):
     """Collision backend over an LSPP cylinder classifier.
 
     Args:
@@ -56,8 +57,8 @@ class CylinderBackend:
         """p(collision) (B, K) of latents z (B, L) with each cylinder; differentiable in z."""
         return self.classifier.p_each(z.float(), self._o).to(z.dtype)
 
-    def p_collision(self, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
-        """p(any collision) (B,) = 1 - prod_i (1 - p_i); q (B, 7) is not used (the classifier reads z)."""
+    def p_collision(self, q: torch.Tensor, z: torch.Tensor, frames: torch.Tensor | None = None) -> torch.Tensor:
+        """p(any collision) (B,) = 1 - prod_i (1 - p_i); q (B, 7) and frames are not used (the classifier reads z)."""
         p = self.p_each(z)
         return 1.0 - torch.prod(1.0 - p, dim=1) if p.shape[1] else z.new_zeros(len(z))
 
@@ -66,4 +67,4 @@ class CylinderBackend:
         q = np.atleast_2d(np.asarray(q, dtype=float))
         if self._labeler is None or self.check_mode == "none":
             return np.zeros(len(q), dtype=bool)
-        return self._labeler.label(q).any(axis=1)
+        return np.asarray(self._labeler.label(q).any(axis=1))

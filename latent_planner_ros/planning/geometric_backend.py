@@ -19,6 +19,7 @@ import torch.nn.functional as F
 from scipy.ndimage import distance_transform_edt
 
 from latent_planner_ros.planning.ball_query import BallQuery, finite_rows
+from latent_planner_ros.planning.collision_backend import BackendDefaults
 from latent_planner_ros.robot.link_hulls import hull_cover_spheres, link_hull_planes, plane_distance
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.spheres import panda_spheres
@@ -77,7 +78,7 @@ def _spread(normals: np.ndarray, k: int) -> np.ndarray:
     return np.asarray(chosen)
 
 
-class GeometricBackend:
+class GeometricBackend(BackendDefaults):
     name = "geometric"
 
     def __init__(self, config: GeometricBackendConfig | None = None):
@@ -168,6 +169,7 @@ class GeometricBackend:
             return torch.full(c.shape[:2], far, dtype=c.dtype) - self._radius
         flat = c.detach().reshape(-1, 3).numpy().astype(float)
         dist, idx = self._balls._kdtree().query(flat, distance_upper_bound=far)
+        idx = np.asarray(idx)
         near = np.isfinite(dist)
         nearest = np.zeros_like(flat)
         nearest[near] = self.cloud[idx[near]]
@@ -176,7 +178,8 @@ class GeometricBackend:
         d = torch.where(torch.as_tensor(near).view(c.shape[:2]), d, torch.full_like(d, far))
         return d - self._radius
 
-    def p_collision(self, q: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
+    def p_collision(self, q: torch.Tensor, z: torch.Tensor, frames: torch.Tensor | None = None) -> torch.Tensor:
+        """Differentiable p(collision) (B,) of q (B, 7) [rad] from its spheres' clearance (z, frames: not used)."""
         cfg = self.config
         logits = (cfg.margin - self.clearance(q)) / cfg.temperature
         return torch.sigmoid(logits.max(dim=1).values)
@@ -214,7 +217,7 @@ class GeometricBackend:
         if near.any():
             hit[near] = self._balls.occupied(c[near], self._check_radius[np.nonzero(near)[1]])
         if self.config.exact_margin is None or not hit.any():
-            return hit.any(axis=1)
+            return np.asarray(hit.any(axis=1))
         return self._hull_hits(frames, c, hit)
 
     def _hull_hits(self, frames: np.ndarray, centres: np.ndarray, hit: np.ndarray) -> np.ndarray:

@@ -84,7 +84,7 @@ def _exact_check(planner):
     """A context in which the planner's hard check is the exact geometric one (the learned backend's
     geometric_only), or nothing to change."""
     backend = getattr(planner, "backend", None)
-    return backend.geometric_only() if backend is not None and hasattr(backend, "geometric_only") else nullcontext()
+    return backend.geometric_only() if backend is not None else nullcontext()
 
 
 TOUCH_DEPTH_M = 0.003

@@ -20,6 +20,7 @@ from latent_planner_ros.models.collision_predictor import CollisionPredictor
 from latent_planner_ros.models.scene_encoder import SceneEmbedding
 from latent_planner_ros.perception.scene_input import inside_bounds
 from latent_planner_ros.planning.ball_query import finite_rows
+from latent_planner_ros.planning.collision_backend import BackendDefaults
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.planning.network_domain import share_outside
 from latent_planner_ros.robot.panda import LINK_FRAMES
@@ -35,7 +36,7 @@ shipped network's precision on near-object queries of the held-out family's vali
 gamma_col; on the planning tuning set it refused one unsafe plan more than 0.3 did, at no loss of success."""
 
 
-class LearnedBackend:
+class LearnedBackend(BackendDefaults):
     """Collision backend over a CollisionPredictor.
 
     Args:
@@ -48,6 +49,8 @@ class LearnedBackend:
     """
 
     name = "learned"
+    mode = "learned"
+    """"learned", or "geometric" while the scene lies beyond the network's box (see domain_share)"""
 
     def __init__(
         self,
@@ -60,7 +63,6 @@ class LearnedBackend:
         self.threshold = float(threshold)
         self.domain_share = float(domain_share)
         self.mode = "learned"
-        """"learned", or "geometric" while the scene lies beyond the network's box (see domain_share)"""
         self.geometric = GeometricBackend() if geometric_check else None
         self._fallback: GeometricBackend | None = None  # the geometric backend of scenes beyond the box
         self._fallback_cloud: np.ndarray | None = None  # the cloud it holds
@@ -134,6 +136,11 @@ class LearnedBackend:
             if saved[1] == "geometric" and saved[2] is not None:
                 self._use_fallback(saved[2])
 
+    def _stand_in(self) -> GeometricBackend:
+        """The geometric backend of scenes beyond the network's box (exists whenever `mode` is "geometric")."""
+        assert self._fallback is not None, "mode is geometric only once the fallback holds a scene"
+        return self._fallback
+
     def _use_fallback(self, cloud: np.ndarray) -> None:
         self.mode = "geometric"
         self._fallback = self._fallback or GeometricBackend()
@@ -167,7 +174,7 @@ class LearnedBackend:
         """p(collision) (B,) of decoded configurations q (B, 7) with their latents z (B, L); differentiable.
         frames: the poses (B, len(LINK_FRAMES), 4, 4) [m] of q's link frames if already computed (TorchFK)."""
         if self.mode == "geometric":
-            return self._fallback.p_collision(q, z).to(z.dtype)
+            return self._stand_in().p_collision(q, z).to(z.dtype)
         poses = None if frames is None else frames[:, self._label_frames].float()
         logits = self.predictor.link_logits_q(self.embedding, q.float(), z.float(), poses)
         return torch.sigmoid(self.predictor.net.combine(logits)).to(z.dtype)
@@ -176,7 +183,7 @@ class LearnedBackend:
         """p(collision) of each of the network's links for one configuration q (7,) [rad]: {link frame name: p}
         (the geometric fallback's links while it stands in)."""
         if self.mode == "geometric":
-            return self._fallback.link_p_collision(q)
+            return self._stand_in().link_p_collision(q)
         with torch.no_grad():
             q_t = torch.as_tensor(np.asarray(q, dtype=np.float32)[None])
             p = torch.sigmoid(self.predictor.link_logits_q(self.embedding, q_t, None))[0].numpy()
@@ -187,7 +194,7 @@ class LearnedBackend:
         q = np.atleast_2d(np.asarray(q, dtype=np.float64))
         frames = self._fk.frames_np(q)  # (M, F, 4, 4): one FK for both parts of the check
         if self.mode == "geometric":
-            return self._fallback.check_frames(frames)
+            return self._stand_in().check_frames(frames)
         # the cheaper geometric check first: the network only sees the configurations it left open
         hits = self.geometric.check_frames(frames) if self.geometric is not None else np.zeros(len(q), dtype=bool)
         todo = np.flatnonzero(~hits)

@@ -71,7 +71,7 @@ def planning_function(planner: Any, lock: threading.Lock | None = None, reachabi
                     return refused_result(planner.panda, request.q, request.goal, "a grasp goal needs a cloud", t0)
                 return plan_grasp_spec(planner, request.q, request.goal, np.asarray(cloud), request.grasp)
             backend = getattr(planner, "backend", None)
-            if request.cloud is not None and backend is not None and hasattr(backend, "set_cloud"):
+            if request.cloud is not None and backend is not None:
                 backend.set_cloud(request.cloud)
             return planner.plan(request.q, request.goal, request.scene)
 

@@ -45,9 +45,10 @@ def test_bench_lspp_writes_the_table_and_reuses_its_scenarios(tmp_path):
         ["--obstacles", "0"],
         ["--scenes", "0"],
         ["--obstacles", "x"],
-        ["--lspp-set", "n_seeds"],
+        ["--lspp-set", "search.n_seeds"],
         ["--lspp-set", "teleport=1"],
-        ["--lspp-set", "n_seeds=0"],
+        ["--lspp-set", "search.teleport=1"],
+        ["--lspp-set", "search.n_seeds=0"],
     ],
 )
 def test_bad_arguments_are_refused(tmp_path, bad, capsys):
@@ -73,9 +74,10 @@ def test_lspp_set_changes_only_the_lspp_row():
     from latent_planner_ros.bench.lspp import parse_overrides
     from latent_planner_ros.bench.lspp_planners import build_planners
 
-    overrides = parse_overrides(["n_seeds=2", "restarts=4", "backtrace_keep=0"])
-    assert overrides == {"n_seeds": 2, "restarts": 4, "backtrace_keep": 0}
+    overrides = parse_overrides(["search.n_seeds=2", "search.restarts=4", "checks.backtrace_keep=0", "lr=0.03"])
+    assert overrides == {"search.n_seeds": 2, "search.restarts": 4, "checks.backtrace_keep": 0, "lr": 0.03}
     planners = build_planners(["lspp", "lspp_seed"], None, overrides)
-    assert (planners["lspp"].config.n_seeds, planners["lspp"].config.restarts) == (2, 4)
-    assert planners["lspp"].config.backtrace_keep == 0
-    assert planners["lspp_seed"].config.n_seeds == 1  # the seed's row keeps its configuration
+    lspp = planners["lspp"].config
+    assert (lspp.search.n_seeds, lspp.search.restarts, lspp.checks.backtrace_keep, lspp.lr) == (2, 4, 0, 0.03)
+    assert lspp.checks.self_check and lspp.search.plan_lr == 0.06  # the rest of the preset is kept
+    assert planners["lspp_seed"].config.search.n_seeds == 1  # the seed's row keeps its configuration

@@ -52,13 +52,12 @@ def test_clouds_of_a_best_effort_or_reliable_camera_are_taken(factory, qos):
         end = time.monotonic() + 10.0
         while pub.get_subscription_count() < 1 and time.monotonic() < end:
             executor.spin_once(timeout_sec=0.05)
-        # matched: a BEST_EFFORT camera by the sensor-data subscription, a RELIABLE one by both (each message is
-        # taken once, see test_each_cloud_message_is_passed_on_once)
-        want = 1 if qos.reliability == ReliabilityPolicy.BEST_EFFORT else 2
+        # the node subscribes with the camera's reliability once it sees the publisher (nodes/qos.py)
         end = time.monotonic() + 10.0
-        while pub.get_subscription_count() < want and time.monotonic() < end:
+        while time.monotonic() < end and [s.profile.reliability for s in node.cloud_subscriptions] != [qos.reliability]:
             executor.spin_once(timeout_sec=0.05)
-        assert pub.get_subscription_count() == want
+        assert [s.profile.reliability for s in node.cloud_subscriptions] == [qos.reliability]
+        assert pub.get_subscription_count() == 1
         end = time.monotonic() + 10.0
         while not node.fusion.received and time.monotonic() < end:
             stamp = node.get_clock().now().to_msg()
@@ -73,20 +72,15 @@ def test_clouds_of_a_best_effort_or_reliable_camera_are_taken(factory, qos):
         rclpy.shutdown()
 
 
-def test_each_cloud_message_is_passed_on_once():
-    """A RELIABLE publisher's message arrives through both subscriptions: the second copy is dropped, in either
-    order; the same content sent again later (a static scene, stamp 0) is passed on again."""
-    from latent_planner_ros.nodes.qos import DUPLICATE_WINDOW_S, Deduplicated
+def test_the_profile_follows_the_publishers():
+    """RELIABLE only when every publisher is RELIABLE (its large clouds then arrive whole); BEST_EFFORT otherwise,
+    and before any publisher is seen (it matches both kinds)."""
+    from latent_planner_ros.nodes.qos import CLOUD_QOS, RELIABLE_CLOUD_QOS, profile_for
 
-    taken = []
-    d = Deduplicated(taken.append)
-    a = xyz_to_cloud(np.zeros((10, 3), dtype=np.float32))
-    b = xyz_to_cloud(np.ones((12, 3), dtype=np.float32))
-    d.reliable(a)
-    d.best_effort(a)  # its copy
-    d.best_effort(b)  # a new message first through the other subscription
-    d.reliable(b)  # its copy
-    assert taken == [a, b]
-    time.sleep(DUPLICATE_WINDOW_S + 0.01)
-    d.best_effort(b)  # the same cloud published again later
-    assert taken == [a, b, b]
+    best, reliable = ReliabilityPolicy.BEST_EFFORT, ReliabilityPolicy.RELIABLE
+    assert profile_for([]) is CLOUD_QOS
+    assert profile_for([reliable]) is RELIABLE_CLOUD_QOS
+    assert profile_for([reliable, reliable]) is RELIABLE_CLOUD_QOS
+    assert profile_for([reliable, best]) is CLOUD_QOS
+    assert profile_for([best]) is CLOUD_QOS
+    assert CLOUD_QOS.reliability == best and RELIABLE_CLOUD_QOS.reliability == reliable

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from latent_planner_ros.planning.amp_ls import AmpLs
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls import AmpLs, AmpLsConfig
+from latent_planner_ros.planning.amp_ls.config import with_overrides
 from latent_planner_ros.planning.collision_backend import NoCollision
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.planning.goal import Goal
@@ -28,7 +28,7 @@ def _check_path(result, speed_scale=0.5):
 
 def test_free_space_plan_reaches_a_nearby_goal(shipped_vae):
     goal_q = Q_READY + np.array([0.4, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3])
-    planner = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(use_collision=False, n_seeds=4))
+    planner = AmpLs(shipped_vae, NoCollision(), with_overrides(AmpLsConfig(use_collision=False), {"search.n_seeds": 4}))
     result = planner.plan(Q_READY, _goal_of(goal_q))
     assert result.success, result.reason
     assert result.final_pos_err_m < 0.01 and result.final_ori_err_rad < np.radians(15)
@@ -39,7 +39,7 @@ def test_free_space_plan_reaches_a_nearby_goal(shipped_vae):
 class CostBlindBackend(GeometricBackend):
     """A collision cost that sees nothing (as a wrong learned predictor would) over the exact check."""
 
-    def p_collision(self, q, z):
+    def p_collision(self, q, z, frames=None):
         return super().p_collision(q, z) * 0.0
 
 
@@ -60,12 +60,14 @@ def test_a_wall_of_points_triggers_back_tracing_and_is_never_crossed(shipped_vae
     s, h = np.meshgrid(np.linspace(-0.12, 0.12, 25), np.linspace(-0.15, 0.15, 31))
     wall = mid + s.reshape(-1, 1) * u + h.reshape(-1, 1) * np.array([0, 0, 1.0])
     backend = CostBlindBackend()
-    cfg = AmpLsConfig(collision_backend="geometric", max_steps=200, backtrace_keep=keep, lazy_check=lazy)
+    cfg = with_overrides(
+        AmpLsConfig(collision_backend="geometric", max_steps=200), {"checks.backtrace_keep": keep, "checks.lazy": lazy}
+    )
     result = AmpLs(shipped_vae, backend, cfg).plan(start, goal, wall)
     assert result.info["backtraces"] > 0
     backend.set_scene(wall)
     assert not backend.check(result.q_path).any()  # no state of the returned path touches the wall
-    assert np.all(np.abs(np.diff(result.q_path, axis=0)) <= cfg.check_step_rad + 1e-9)
+    assert np.all(np.abs(np.diff(result.q_path, axis=0)) <= cfg.checks.check_step_rad + 1e-9)
     _check_path(result)
 
 
@@ -93,10 +95,10 @@ def test_bad_inputs_are_refused(shipped_vae):
         AmpLsConfig(lr=-1.0)
     with pytest.raises(ValueError):
         AmpLsConfig(collision_backend="magic")
-    with pytest.raises(ValueError, match="finish_ik_iters"):
-        AmpLsConfig(finish_ik_iters=0)
-    with pytest.raises(ValueError, match="finish_ik_step_rad"):
-        AmpLsConfig(finish_ik_step_rad=0.0)
+    with pytest.raises(ValueError, match="finish.ik_iters"):
+        with_overrides(AmpLsConfig(), {"finish.ik_iters": 0})
+    with pytest.raises(ValueError, match="finish.ik_step_rad"):
+        with_overrides(AmpLsConfig(), {"finish.ik_step_rad": 0.0})
 
 
 def test_time_parameterisation():
@@ -108,18 +110,18 @@ def test_time_parameterisation():
 class AlwaysColliding(NoCollision):
     """Every decoded state is predicted in collision, so no step is ever accepted."""
 
-    def p_collision(self, q, z):
+    def p_collision(self, q, z, frames=None):
         return 0.0 * z.sum(-1) + 0.99
 
 
 def test_a_tick_stops_starting_steps_when_its_time_budget_is_spent(shipped_vae):
-    planner = AmpLs(shipped_vae, AlwaysColliding(), AmpLsConfig(closed_loop_seeds=1))
+    planner = AmpLs(shipped_vae, AlwaysColliding(), with_overrides(AmpLsConfig(), {"search.closed_loop_seeds": 1}))
     goal = _goal_of(Q_READY + 0.3)
     out = planner.step(Q_READY, goal, max_iterations=5)
-    assert not out.accepted and planner._search.iteration == 5  # no budget: every allowed step runs
+    assert not out.accepted and planner.closed_loop_search.iteration == 5  # no budget: every allowed step runs
     planner.reset()
     out = planner.step(Q_READY, goal, max_iterations=5, budget_s=1e-6)
-    assert not out.accepted and planner._search.iteration == 1  # at least one step, then the budget stops it
+    assert not out.accepted and planner.closed_loop_search.iteration == 1  # at least one step, then the budget stops it
     np.testing.assert_array_equal(out.command, Q_READY)  # nothing accepted: hold
 
 
@@ -127,20 +129,21 @@ def test_restarts_keep_the_path_continuous(shipped_vae):
     """Stalled seeds restart from the best seed's last accepted state: the returned path must still be one
     connected joint path from the start, with no jump where a seed took over another seed's path."""
     far = Goal(np.array([1.4, 0.0, 0.5]), np.eye(3))  # out of reach: every seed stalls
-    cfg = AmpLsConfig(
-        use_collision=False, n_seeds=4, patience=5, restarts=6, max_steps=150, rrt_escape_budget_s=0.0
+    cfg = with_overrides(
+        AmpLsConfig(use_collision=False, max_steps=150),
+        {"search.n_seeds": 4, "search.patience": 5, "search.restarts": 6, "escape": None},
     )  # the latent search alone
     result = AmpLs(shipped_vae, NoCollision(), cfg, seed=3).plan(Q_READY, far)
     assert not result.success and result.info["restarts"] == 6
     np.testing.assert_array_equal(result.q_path[0], Q_READY)
     jumps = np.abs(np.diff(result.q_path, axis=0)).max(axis=1)
-    assert jumps.max() <= cfg.check_step_rad + 1e-9
+    assert jumps.max() <= cfg.checks.check_step_rad + 1e-9
     _check_path(result)
 
 
 def test_backtrace_keep_must_be_a_fraction():
-    with pytest.raises(ValueError, match="backtrace_keep"):
-        AmpLsConfig(backtrace_keep=1.0)
+    with pytest.raises(ValueError, match="checks.backtrace_keep"):
+        with_overrides(AmpLsConfig(), {"checks.backtrace_keep": 1.0})
 
 
 def test_a_tick_can_take_several_accepted_steps(shipped_vae):
@@ -156,7 +159,7 @@ def test_a_tick_can_take_several_accepted_steps(shipped_vae):
             assert out.accepted
             q = out.command
         errors[steps] = out.pos_err_m
-        assert planner._search.iteration >= 5 * steps
+        assert planner.closed_loop_search.iteration >= 5 * steps
     assert errors[2] < errors[1]
 
 
@@ -170,14 +173,14 @@ class JointSpaceBlock(NoCollision):
 
 
 def test_several_accepted_steps_command_the_last_only_when_the_straight_segment_to_it_is_free(shipped_vae):
-    planner = AmpLs(shipped_vae, JointSpaceBlock(), AmpLsConfig(self_check=False))
+    planner = AmpLs(shipped_vae, JointSpaceBlock(), with_overrides(AmpLsConfig(), {"checks.self_check": False}))
     first = Q_READY + np.array([0.3, 0.0, 0, 0, 0, 0, 0])
     last = Q_READY + np.array([0.3, 0.3, 0, 0, 0, 0, 0])
     assert not planner.backend.check(interpolate(Q_READY, first, 30)).any()
     assert not planner.backend.check(interpolate(first, last, 30)).any()
-    np.testing.assert_array_equal(planner._direct_target(Q_READY, last, first), first)  # the diagonal hits
+    np.testing.assert_array_equal(planner.command_target(Q_READY, last, first), first)  # the diagonal hits
     beside = Q_READY + np.array([0.3, -0.3, 0, 0, 0, 0, 0])
-    np.testing.assert_array_equal(planner._direct_target(Q_READY, beside, first), beside)
+    np.testing.assert_array_equal(planner.command_target(Q_READY, beside, first), beside)
 
 
 class CountingBackend(GeometricBackend):
@@ -207,10 +210,12 @@ def test_plan_timings_add_up_to_the_total_and_count_the_hard_checked_states(ship
 
 def test_an_open_loop_plan_gives_up_at_its_timeout(shipped_vae):
     far = Q_READY + np.array([1.5, 0.4, -0.6, 0.8, 0.5, -0.6, 0.9])
-    config = AmpLsConfig(use_collision=False, n_seeds=2, timeout_s=1e-6, rrt_escape_budget_s=0.0)
-    config.direct_first = False  # no straight segment: the latent search must run
+    config = with_overrides(
+        AmpLsConfig(use_collision=False), {"search.n_seeds": 2, "plan.timeout_s": 1e-6, "escape": None}
+    )
+    config.finish.direct_first = False  # no straight segment: the latent search must run
     result = AmpLs(shipped_vae, NoCollision(), config).plan(Q_READY, _goal_of(far))
     assert not result.success and result.reason == "timeout (1e-06 s)"
     assert len(result.q_path) >= 1 and np.array_equal(result.q_path[0], Q_READY)
-    with pytest.raises(ValueError, match="timeout_s"):
-        AmpLsConfig(timeout_s=-1.0)
+    with pytest.raises(ValueError, match="plan.timeout_s"):
+        with_overrides(AmpLsConfig(), {"plan.timeout_s": -1.0})

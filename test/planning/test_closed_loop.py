@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from latent_planner_ros.planning.amp_ls import AmpLs
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls import AmpLs, AmpLsConfig
 from latent_planner_ros.planning.closed_loop import ERROR, ClosedLoopConfig, ClosedLoopController
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.planning.goal import Goal

@@ -3,8 +3,7 @@ holds that do not count against the no-progress watchdog."""
 
 import numpy as np
 
-from latent_planner_ros.planning.amp_ls import AmpLs, StepResult
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls import AmpLs, AmpLsConfig, StepResult
 from latent_planner_ros.planning.closed_loop import MEASURED_LIMIT_TOL_RAD, ClosedLoopConfig, ClosedLoopController
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.planning.goal import Goal

@@ -5,8 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from latent_planner_ros.planning.amp_ls import AmpLs
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls import AmpLs, AmpLsConfig
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig, ClosedLoopController
 from latent_planner_ros.planning.evasion import Evader
 from latent_planner_ros.planning.geometric_backend import GeometricBackend

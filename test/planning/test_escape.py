@@ -4,8 +4,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from latent_planner_ros.planning.amp_ls import AmpLs
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls import AmpLs, AmpLsConfig
+from latent_planner_ros.planning.amp_ls.config import with_overrides
 from latent_planner_ros.planning.collision_backend import NoCollision
 from latent_planner_ros.planning.escape import GOAL_SLACK, RrtEscape, goal_states
 from latent_planner_ros.planning.geometric_backend import GeometricBackend, GeometricBackendConfig
@@ -100,13 +100,15 @@ def test_goal_states_repair_exact_solutions_the_check_refuses():
 def test_the_escape_reaches_a_goal_behind_a_wall_where_the_latent_search_stalls(shipped_vae):
     goal = _goal_of(GOAL_Q)
     wall = _wall(goal)
-    base = dict(collision_backend="geometric", rrt_escape_after_s=60.0)  # the escape starts once all seeds stall
+    base = {"collision_backend": "geometric", "escape.after_s": 60.0}  # the escape starts once all seeds stall
     field = GeometricBackendConfig(distance="field")  # the distance-field cost stalls here (the nearest-point one not)
-    stalled = AmpLs(shipped_vae, GeometricBackend(field), AmpLsConfig(**base, rrt_escape_budget_s=0.0)).plan(
-        Q_READY, goal, wall
-    )
+    stalled = AmpLs(
+        shipped_vae,
+        GeometricBackend(field),
+        with_overrides(AmpLsConfig(collision_backend="geometric"), {"escape": None}),
+    ).plan(Q_READY, goal, wall)
     assert not stalled.success and stalled.reason == "no progress" and stalled.info["escape"] == ""
-    planner = AmpLs(shipped_vae, GeometricBackend(field), AmpLsConfig(**base))
+    planner = AmpLs(shipped_vae, GeometricBackend(field), with_overrides(AmpLsConfig(), base))
     result = planner.plan(Q_READY, goal, wall)
     assert result.success, result.reason
     assert result.reason == "reached (escape: rrt)" and result.info["escape"] == "escape: rrt"
@@ -118,10 +120,12 @@ def test_the_escape_reaches_a_goal_behind_a_wall_where_the_latent_search_stalls(
     # the check refuses lets states within escape_rad of it through, as for any AMP-LS plan)
     check = GeometricBackend()
     check.set_scene(wall)
-    away = np.abs(q - Q_READY).max(axis=1) > (planner.config.escape_rad if result.info["start_refused"] else -1.0)
+    away = np.abs(q - Q_READY).max(axis=1) > (
+        planner.config.checks.escape_rad if result.info["start_refused"] else -1.0
+    )
     assert away.sum() > len(q) // 2 and not check.check(q[away]).any()
     assert planner.checker.feasible(q).all()
-    assert np.all(np.abs(np.diff(q, axis=0)) <= planner.config.check_step_rad + 1e-9)
+    assert np.all(np.abs(np.diff(q, axis=0)) <= planner.config.checks.check_step_rad + 1e-9)
 
 
 def test_easy_problems_do_not_use_the_escape(shipped_vae, monkeypatch):
@@ -139,10 +143,13 @@ def test_easy_problems_do_not_use_the_escape(shipped_vae, monkeypatch):
 
 
 def test_the_escape_honours_its_time_budget(shipped_vae):
-    """No path exists (a shell around the start in C-space): the escape runs after rrt_escape_after_s, keeps to
-    rrt_escape_budget_s, and the plan says why it failed."""
+    """No path exists (a shell around the start in C-space): the escape runs after escape.after_s, keeps to
+    escape.budget_s, and the plan says why it failed."""
     after, budget = 0.1, 0.5
-    cfg = AmpLsConfig(collision_backend="geometric", patience=600, rrt_escape_after_s=after, rrt_escape_budget_s=budget)
+    cfg = with_overrides(
+        AmpLsConfig(collision_backend="geometric"),
+        {"search.patience": 600, "escape.after_s": after, "escape.budget_s": budget},
+    )
     result = AmpLs(shipped_vae, ShellBackend(), cfg).plan(Q_READY, _goal_of(GOAL_Q))
     assert not result.success
     assert "escape: rrt, no path within" in result.reason
@@ -150,10 +157,12 @@ def test_the_escape_honours_its_time_budget(shipped_vae):
     assert result.timings["escape_s"] < budget + 0.05  # the escape kept to its budget
 
 
-def test_the_escape_is_off_at_zero_budget_and_refuses_bad_values(shipped_vae):
-    assert AmpLs(shipped_vae, NoCollision(), AmpLsConfig(rrt_escape_budget_s=0.0)).escape is None
-    for name in ("rrt_escape_budget_s", "rrt_escape_after_s"):
+def test_the_escape_is_off_as_none_and_refuses_bad_values(shipped_vae):
+    assert AmpLs(shipped_vae, NoCollision(), with_overrides(AmpLsConfig(), {"escape": None})).escape is None
+    for name in ("escape.budget_s", "escape.after_s"):
         with pytest.raises(ValueError, match=name):
-            AmpLsConfig(**{name: -1.0})
+            with_overrides(AmpLsConfig(), {name: -1.0})
         with pytest.raises(ValueError, match=name):
-            AmpLsConfig(**{name: float("nan")})
+            with_overrides(AmpLsConfig(), {name: float("nan")})
+    with pytest.raises(ValueError, match="escape.budget_s"):  # a zero budget is not "off": None is
+        with_overrides(AmpLsConfig(), {"escape.budget_s": 0.0})

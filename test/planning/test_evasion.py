@@ -2,8 +2,7 @@
 
 import numpy as np
 
-from latent_planner_ros.planning.amp_ls import StepResult
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls import AmpLsConfig, StepResult
 from latent_planner_ros.planning.closed_loop import WARN, ClosedLoopConfig, ClosedLoopController
 from latent_planner_ros.planning.evasion import HORIZON_M, Evader
 from latent_planner_ros.planning.goal import Goal

@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from latent_planner_ros.bench.planner import reached
-from latent_planner_ros.planning.amp_ls import AmpLs
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls import AmpLs, AmpLsConfig
 from latent_planner_ros.planning.collision_backend import NoCollision
 from latent_planner_ros.planning.problems import free_space_problems
 from latent_planner_ros.robot.collision import CollisionChecker

@@ -11,8 +11,7 @@ from latent_planner_ros.data.obstacles import Box
 from latent_planner_ros.data.scene import Scene
 from latent_planner_ros.evaluation.path_check import PathJudge
 from latent_planner_ros.perception.grasp_target import split_target
-from latent_planner_ros.planning.amp_ls import AmpLs
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls import AmpLs, AmpLsConfig
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.grasp import plan_grasp, pregrasp_goal

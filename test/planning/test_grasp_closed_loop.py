@@ -9,8 +9,7 @@ import pytest
 from latent_planner_ros.data.scene import Scene
 from latent_planner_ros.evaluation.path_check import PathJudge
 from latent_planner_ros.perception.grasp_target import split_target
-from latent_planner_ros.planning.amp_ls import AmpLs
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls import AmpLs, AmpLsConfig
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig, ClosedLoopController
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.planning.grasp import GraspSpec, pregrasp_goal

@@ -10,14 +10,14 @@ from latent_planner_ros.data.cylinders import cylinder_scene
 from latent_planner_ros.evaluation.path_check import PathJudge
 from latent_planner_ros.models.collision_metrics import auroc
 from latent_planner_ros.models.cylinder_classifier import load_classifier
-from latent_planner_ros.planning.amp_ls import AmpLs
+from latent_planner_ros.planning.amp_ls import AmpLs, presets
 from latent_planner_ros.planning.collision_backend import NoCollision
-from latent_planner_ros.planning.lspp import lspp_seed_config, make_variant
+from latent_planner_ros.planning.lspp import make_variant
 
 
 @pytest.fixture(scope="module")
 def scenarios(shipped_vae):
-    no_col = AmpLs(shipped_vae, NoCollision(), lspp_seed_config(use_collision=False), seed=5)
+    no_col = AmpLs(shipped_vae, NoCollision(), presets.lspp_seed(use_collision=False), seed=5)
     gen = ScenarioGenerator(no_col, seed=505)
     return [gen.draw(1) for _ in range(4)]
 
@@ -51,7 +51,7 @@ def test_lspp_reaches_around_the_cylinder_the_unguided_planner_hits(shipped_vae,
 
 def test_the_seed_variant_runs_without_explicit_checks(shipped_vae, scenarios):
     planner = make_variant("lspp_seed", shipped_vae)
-    assert planner.backend.check_mode == "none" and planner.config.n_seeds == 1
+    assert planner.backend.check_mode == "none" and planner.config.search.n_seeds == 1
     sc = scenarios[0]
     result = planner.plan(np.asarray(sc.start), position_goal(np.asarray(sc.target)), np.asarray(sc.cylinders))
     assert result.iterations <= 300 and len(result.q_path) >= 1

@@ -3,10 +3,9 @@
 import numpy as np
 import pytest
 
-from latent_planner_ros.planning import amp_ls_additions
-from latent_planner_ros.planning.amp_ls import AmpLs
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
-from latent_planner_ros.planning.amp_ls_search import LatentSearch
+from latent_planner_ros.planning.amp_ls import AmpLs, AmpLsConfig
+from latent_planner_ros.planning.amp_ls import finish as finish_part
+from latent_planner_ros.planning.amp_ls.config import with_overrides
 from latent_planner_ros.planning.collision_backend import NoCollision
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.ik import solve_ik as original_ik
@@ -67,13 +66,17 @@ def _goal_of(q):
 
 def test_the_exact_finish_reaches_sooner_and_ends_on_the_goal(shipped_vae):
     goal = _goal_of(Q_READY + np.array([0.5, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3]))
-    base = dict(use_collision=False, n_seeds=4, shortcut=False)
-    plain = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(finish_radius_m=0.0, **base), seed=1).plan(Q_READY, goal)
-    finished = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(finish_radius_m=0.1, **base), seed=1).plan(Q_READY, goal)
+    base = {"use_collision": False, "search.n_seeds": 4, "plan.shortcut": False}
+    plain = AmpLs(shipped_vae, NoCollision(), with_overrides(AmpLsConfig(), {**base, "finish": None}), seed=1).plan(
+        Q_READY, goal
+    )
+    finished = AmpLs(
+        shipped_vae, NoCollision(), with_overrides(AmpLsConfig(), {**base, "finish.radius_m": 0.1}), seed=1
+    ).plan(Q_READY, goal)
     assert plain.success and finished.success
     assert finished.iterations < plain.iterations
     assert finished.final_pos_err_m < 0.5 * goal.pos_tol  # IK converges well inside the tolerance
-    assert np.abs(np.diff(finished.q_path, axis=0)).max() <= AmpLsConfig().check_step_rad + 1e-9
+    assert np.abs(np.diff(finished.q_path, axis=0)).max() <= AmpLsConfig().checks.check_step_rad + 1e-9
 
 
 class RefuseFar(NoCollision):
@@ -87,17 +90,18 @@ def test_a_colliding_finish_is_refused_and_lazy_checks_back_trace(shipped_vae, m
     """The goal needs joint 6 turned by 1.2 rad, the check refuses more than 0.3: neither the exact finish nor
     the lazily checked chains may return a refused state; the chains that reached in the model back-trace."""
     goal = _goal_of(Q_READY + np.array([0.3, 0.1, -0.1, 0.2, 0.0, 0.1, 1.2]))
-    cfg = AmpLsConfig(
-        use_collision=True, n_seeds=2, max_steps=80, restarts=0, finish_radius_m=0.3, rrt_escape_budget_s=0.0
+    cfg = with_overrides(
+        AmpLsConfig(use_collision=True, max_steps=80),
+        {"search.n_seeds": 2, "search.restarts": 0, "finish.radius_m": 0.3, "escape": None},
     )
     solved = []
-    monkeypatch.setattr(amp_ls_additions, "solve_ik", lambda *a: solved.append(original_ik(*a)) or solved[-1])
+    monkeypatch.setattr(finish_part, "solve_ik", lambda *a: solved.append(original_ik(*a)) or solved[-1])
     result = AmpLs(shipped_vae, RefuseFar(), cfg, seed=0).plan(Q_READY, goal)
     assert not result.success
     assert sum(sol.converged for sol in solved) > 0  # exact finishes were found, and refused by the check
     assert result.info["backtraces"] > 0
     assert np.all(np.abs(result.q_path[:, 6] - Q_READY[6]) <= 0.3)  # nothing refused is returned
-    assert len(result.q_path) > 1 and np.abs(np.diff(result.q_path, axis=0)).max() <= cfg.check_step_rad + 1e-9
+    assert len(result.q_path) > 1 and np.abs(np.diff(result.q_path, axis=0)).max() <= cfg.checks.check_step_rad + 1e-9
 
 
 class RefuseAroundStart(NoCollision):
@@ -109,14 +113,18 @@ class RefuseAroundStart(NoCollision):
 
 def test_a_start_refused_by_the_hard_check_can_be_left_within_escape_rad(shipped_vae):
     goal = _goal_of(Q_READY + np.array([0.4, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3]))
-    base = dict(use_collision=True, n_seeds=4, max_steps=150)
-    stuck = AmpLs(shipped_vae, RefuseAroundStart(), AmpLsConfig(escape_rad=0.0, **base), seed=1).plan(Q_READY, goal)
+    base = {"use_collision": True, "search.n_seeds": 4, "max_steps": 150}
+    stuck = AmpLs(
+        shipped_vae, RefuseAroundStart(), with_overrides(AmpLsConfig(), {**base, "checks.escape_rad": 0.0}), seed=1
+    ).plan(Q_READY, goal)
     assert not stuck.success and stuck.info["start_refused"] and len(stuck.q_path) == 1
-    planner = AmpLs(shipped_vae, RefuseAroundStart(), AmpLsConfig(escape_rad=0.05, **base), seed=1)
+    planner = AmpLs(
+        shipped_vae, RefuseAroundStart(), with_overrides(AmpLsConfig(), {**base, "checks.escape_rad": 0.05}), seed=1
+    )
     out = planner.plan(Q_READY, goal)
     assert out.success and out.info["start_refused"]
-    assert planner._escape_from is None  # the relaxation ends with the plan
-    assert planner._check_segments([Q_READY[None]])[0].all()  # and does not outlive it
+    assert planner.segments.escape_from is None  # the relaxation ends with the plan
+    assert not planner.segments.state_free(Q_READY)  # and does not outlive it
 
 
 # a goal that needs joint 4 near its lower limit: from this start the pose loss stalls (free space, no obstacles)
@@ -126,14 +134,18 @@ AWKWARD_GOAL_Q = np.array([-2.389, 1.653, 1.008, -2.994, 1.847, 1.584, -2.471])
 
 def test_goal_guidance_finishes_a_plan_the_pose_loss_stalls_on(shipped_vae):
     goal = _goal_of(AWKWARD_GOAL_Q)
-    base = dict(use_collision=False, max_steps=400, rrt_escape_budget_s=0.0)  # the latent search alone
-    plain = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(goal_guidance=0, **base), seed=0).plan(AWKWARD_START, goal)
+    base = {"use_collision": False, "max_steps": 400, "escape": None}  # the latent search alone
+    plain = AmpLs(shipped_vae, NoCollision(), with_overrides(AmpLsConfig(), {**base, "guidance": None}), seed=0).plan(
+        AWKWARD_START, goal
+    )
     assert not plain.success and plain.info["goal_configurations"] == -1 and not plain.info["guided"]
-    planner = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(goal_guidance=4, **base), seed=0)
+    planner = AmpLs(
+        shipped_vae, NoCollision(), with_overrides(AmpLsConfig(), {**base, "guidance.solutions": 4}), seed=0
+    )
     guided = planner.plan(AWKWARD_START, goal)
     assert guided.success and guided.info["guided"] and guided.info["goal_configurations"] >= 1
     assert guided.final_pos_err_m < goal.pos_tol and guided.final_ori_err_rad < goal.ori_tol
-    assert np.abs(np.diff(guided.q_path, axis=0)).max() <= AmpLsConfig().check_step_rad + 1e-9
+    assert np.abs(np.diff(guided.q_path, axis=0)).max() <= AmpLsConfig().checks.check_step_rad + 1e-9
     assert planner.checker.feasible(guided.q_path).all()  # every state on the path passed the self check
 
 
@@ -151,21 +163,21 @@ class RefuseNear(NoCollision):
 def test_goal_configurations_reach_the_goal_and_pass_the_hard_check(shipped_vae):
     q_goal = Q_READY + np.array([0.5, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3])
     goal = _goal_of(q_goal)
-    planner = AmpLs(shipped_vae, RefuseNear(q_goal), AmpLsConfig(goal_guidance=3), seed=0)
-    s = LatentSearch(planner, Q_READY)
-    found = planner._goal_configurations(s, goal)
-    assert len(found) == 3 and planner._goal_configurations(s, goal) is found  # searched once per plan
+    planner = AmpLs(shipped_vae, RefuseNear(q_goal), with_overrides(AmpLsConfig(), {"guidance.solutions": 3}), seed=0)
+    s = planner.new_search(Q_READY)
+    found = planner.guidance.configurations(s, goal)
+    assert len(found) == 3 and planner.guidance.configurations(s, goal) is found  # searched once per plan
     panda = load_panda()
     for q in found:
         assert np.linalg.norm(panda.fk(q).translation - goal.position) < goal.pos_tol
-        assert np.abs(q - q_goal).max() >= 0.3 and not planner._check_segments([q[None]])[0][0]
+        assert np.abs(q - q_goal).max() >= 0.3 and planner.segments.state_free(q)
     assert all(np.abs(a - b).max() >= 0.1 for i, a in enumerate(found) for b in found[:i])  # distinct
 
 
 def test_a_bad_goal_guidance_is_refused_by_name():
     for bad in (-1, 1.5, True):
-        with pytest.raises(ValueError, match="goal_guidance"):
-            AmpLsConfig(goal_guidance=bad)
+        with pytest.raises(ValueError, match="guidance.solutions"):
+            with_overrides(AmpLsConfig(), {"guidance.solutions": bad})
 
 
 class Recording(NoCollision):
@@ -190,14 +202,16 @@ def test_shortcut_first_checks_the_straight_segment_and_not_the_chain(shipped_va
     start: in free space it is the whole path, and no state of the wandering chain is ever checked."""
     goal = _goal_of(Q_READY + np.array([0.5, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3]))
     backend = Recording()
-    cfg = AmpLsConfig(use_collision=True, n_seeds=4, lazy_check=True, shortcut=True)
+    cfg = with_overrides(
+        AmpLsConfig(use_collision=True), {"search.n_seeds": 4, "checks.lazy": True, "plan.shortcut": True}
+    )
     result = AmpLs(shipped_vae, backend, cfg, seed=1).plan(Q_READY, goal)
     assert result.success
     end = result.q_path[-1]
     assert _off_line(result.q_path, Q_READY, end) < 1e-9
     checked = np.concatenate(backend.seen[1:])  # [0]: the start's own check
     assert _off_line(checked, Q_READY, end) < 1e-9
-    assert np.abs(np.diff(result.q_path, axis=0)).max() <= cfg.check_step_rad + 1e-9
+    assert np.abs(np.diff(result.q_path, axis=0)).max() <= cfg.checks.check_step_rad + 1e-9
 
 
 class RefuseOne(NoCollision):
@@ -213,55 +227,58 @@ class RefuseOne(NoCollision):
 
 @pytest.mark.parametrize("bad_index", [0, 1, 3, 8, 9])
 def test_a_segment_is_free_only_if_every_state_passes(shipped_vae, bad_index):
-    """_free checks every 4th state first and the rest after: a refused state anywhere refuses the segment, and
-    one refused at a coarse state costs a single check."""
+    """SegmentChecker.free checks every 4th state first and the rest after: a refused state anywhere refuses the
+    segment, and one refused at a coarse state costs a single check."""
     seg = interpolate(Q_READY, Q_READY + 0.1, 10)
     backend = RefuseOne(seg[bad_index])
-    planner = AmpLs(shipped_vae, backend, AmpLsConfig(self_check=False))
-    assert not planner._free(seg)
+    planner = AmpLs(shipped_vae, backend, with_overrides(AmpLsConfig(), {"checks.self_check": False}))
+    assert not planner.segments.free(seg)
     assert backend.calls == (1 if bad_index in (3, 7, 9) else 2)
     backend.bad = Q_READY - 1.0
-    assert planner._free(seg) and planner._free(seg[:1])
+    assert planner.segments.free(seg) and planner.segments.free(seg[:1])
 
 
 def test_a_refused_straight_segment_is_not_checked_again_for_the_same_end(shipped_vae):
     """Finishes from nearby states find the same IK solution: its straight segment from the start, once refused,
     is skipped (safe: the seed's own steps are checked instead); a different end is checked."""
     backend = RefuseOne(None)
-    planner = AmpLs(shipped_vae, backend, AmpLsConfig(self_check=False))
-    s = LatentSearch(planner, Q_READY, n_seeds=1)
+    planner = AmpLs(shipped_vae, backend, with_overrides(AmpLsConfig(), {"checks.self_check": False}))
+    s = planner.new_search(Q_READY, n_seeds=1)
     end = Q_READY + np.array([0.4, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-    backend.bad = interpolate(Q_READY, end, planner._n_checks(Q_READY, end))[5]
-    assert not planner._direct(s, 0, end) and backend.calls > 0
+    backend.bad = planner.segments.densify(Q_READY, end)[5]
+    straight = planner.straight
+    assert not straight.try_end(s, 0, end) and backend.calls > 0
     calls = backend.calls
-    assert not planner._direct(s, 0, end + 0.5 * amp_ls_additions.DIRECT_SKIP_RAD)
+    assert not straight.try_end(s, 0, end + 0.5 * finish_part.DIRECT_SKIP_RAD)
     assert backend.calls == calls  # skipped
     backend.bad = Q_READY - 1.0
     other = end + np.array([0.0, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
-    assert planner._direct(s, 0, other) and backend.calls > calls
+    assert straight.try_end(s, 0, other) and backend.calls > calls
     assert np.array_equal(s.paths[0][-1][-1], other) and s.pending[0] == []
 
 
 def test_straight_first_takes_a_free_straight_segment_without_optimising(shipped_vae):
     goal = _goal_of(Q_READY + np.array([0.4, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3]))
-    base = dict(use_collision=True, n_seeds=4)
-    out = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(**base), seed=0).plan(Q_READY, goal)
+    base = {"use_collision": True, "search.n_seeds": 4}
+    out = AmpLs(shipped_vae, NoCollision(), with_overrides(AmpLsConfig(), base), seed=0).plan(Q_READY, goal)
     assert out.success and out.info["direct_first"] and out.iterations == 0
     steps = np.diff(out.q_path, axis=0)  # one straight joint-space segment from the start
     np.testing.assert_allclose(steps, np.broadcast_to(steps[0], steps.shape), atol=1e-9)
-    assert np.abs(steps).max() <= AmpLsConfig().check_step_rad + 1e-9
-    off = AmpLs(shipped_vae, NoCollision(), AmpLsConfig(direct_first=False, **base), seed=0).plan(Q_READY, goal)
+    assert np.abs(steps).max() <= AmpLsConfig().checks.check_step_rad + 1e-9
+    off = AmpLs(
+        shipped_vae, NoCollision(), with_overrides(AmpLsConfig(), {**base, "finish.direct_first": False}), seed=0
+    ).plan(Q_READY, goal)
     assert off.success and not off.info["direct_first"] and off.iterations > 0
 
 
 def test_straight_first_refused_by_the_check_goes_on_optimising(shipped_vae, monkeypatch):
     goal = _goal_of(Q_READY + np.array([0.4, 0.2, -0.2, 0.3, 0.1, -0.2, 0.3]))
-    q_ik = original_ik(load_panda(), goal, Q_READY, amp_ls_additions.IkConfig(max_iters=50, max_step_rad=0.3)).q
+    q_ik = original_ik(load_panda(), goal, Q_READY, finish_part.IkConfig(max_iters=50, max_step_rad=0.3)).q
     middle = 0.5 * (Q_READY + q_ik)  # the straight segment's middle is refused, start and goal are not
     refuse = RefuseNear(middle)
     refuse.radius = 0.08
     assert np.abs(Q_READY - middle).max() > 0.15 and np.abs(q_ik - middle).max() > 0.15
-    cfg = AmpLsConfig(use_collision=True, n_seeds=4, max_steps=150)
+    cfg = with_overrides(AmpLsConfig(use_collision=True, max_steps=150), {"search.n_seeds": 4})
     out = AmpLs(shipped_vae, refuse, cfg, seed=0).plan(Q_READY, goal)
     assert not out.info["direct_first"] and not out.info["start_refused"] and out.iterations > 0
     assert np.all(np.abs(out.q_path - middle).max(axis=1) >= 0.08)  # nothing refused is returned

@@ -5,11 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from latent_planner_ros.planning.amp_ls import StepResult
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls import AmpLsConfig, StepResult, presets
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig, ClosedLoopController
 from latent_planner_ros.planning.goal import Goal
-from latent_planner_ros.planning.lspp import lspp_config
 from latent_planner_ros.planning.planner_modes import AMP_LS, LSPP, PlannerModes, goal_in_cylinders
 from latent_planner_ros.robot.limits import Q_READY
 
@@ -32,7 +30,7 @@ class _Planner:
 
 def _modes(**cfg):
     amp = ClosedLoopController(_Planner(AMP_LS, AmpLsConfig(collision_backend="geometric")), ClosedLoopConfig(**cfg))
-    lspp = ClosedLoopController(_Planner(LSPP, lspp_config()), ClosedLoopConfig(**cfg))
+    lspp = ClosedLoopController(_Planner(LSPP, presets.lspp()), ClosedLoopConfig(**cfg))
     return PlannerModes(amp, lspp)
 
 

@@ -3,15 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 
 from latent_planner_ros.models.geco import Geco, GecoConfig
-
-if TYPE_CHECKING:
-    from latent_planner_ros.planning.amp_ls import AmpLs
+from latent_planner_ros.models.vae import RobotStateVAE
+from latent_planner_ros.planning.amp_ls.config import AmpLsConfig
 
 
 @dataclass
@@ -42,24 +40,41 @@ class StepResult:
 
 
 class LatentSearch:
-    """Optimisation state of a batch of latent seeds."""
+    """Optimisation state of a batch of B latent seeds, started at the encoding of start_q (7,) [rad].
 
-    def __init__(self, planner: AmpLs, start_q: np.ndarray, n_seeds: int | None = None, lr: float | None = None):
-        cfg = planner.config
+    Args:
+        vae: the frozen robot-state VAE (encodes the start).
+        config: the planner's configuration (seed count and noise, optimiser, GECO settings).
+        generator: the planner's torch generator (the extra seeds' noise).
+        start_q: (7,) [rad] the start state.
+        n_seeds: B (default config.search.n_seeds).
+        lr: the optimiser's step size (default config.lr).
+    """
+
+    def __init__(
+        self,
+        vae: RobotStateVAE,
+        config: AmpLsConfig,
+        generator: torch.Generator,
+        start_q: np.ndarray,
+        n_seeds: int | None = None,
+        lr: float | None = None,
+    ):
+        cfg = config
         lr = cfg.lr if lr is None else lr
-        b = cfg.n_seeds if n_seeds is None else n_seeds
+        b = cfg.search.n_seeds if n_seeds is None else n_seeds
         with torch.no_grad():
-            z0 = planner.vae.encode_q(torch.as_tensor(start_q, dtype=torch.float32)[None])
+            z0 = vae.encode_q(torch.as_tensor(start_q, dtype=torch.float32)[None])
         z = z0.repeat(b, 1)
         if b > 1:
-            z[1:] += cfg.seed_noise * torch.randn(b - 1, z.shape[1], generator=planner.generator)
+            z[1:] += cfg.search.seed_noise * torch.randn(b - 1, z.shape[1], generator=generator)
         self.z = torch.nn.Parameter(z)
         self.opt = torch.optim.Adam([self.z], lr=lr) if cfg.optimizer == "adam" else torch.optim.SGD([self.z], lr=lr)
         self.z_prev = self.z.detach().clone()
         self.q_prev = np.repeat(np.asarray(start_q, dtype=float)[None], b, axis=0)
         self.q_command = np.asarray(start_q, dtype=float).copy()
         self.paths: list[list[np.ndarray]] = [[np.asarray(start_q, dtype=float)[None]] for _ in range(b)]
-        # lazy checking (open loop, lazy_check): accepted states not yet hard-checked, as (q (7,), z (L,)),
+        # lazy checking (open loop, checks.lazy): accepted states not yet hard-checked, as (q (7,), z (L,)),
         # after the last checked state q_ok / z_ok of each seed; q_prev / z_prev are then the last accepted one
         self.pending: list[list[tuple[np.ndarray, torch.Tensor]]] = [[] for _ in range(b)]
         self.q_ok = self.q_prev.copy()
@@ -79,3 +94,39 @@ class LatentSearch:
         self.backtraces = 0
         self.restarts = 0
         self.last_losses: dict = {}
+
+    @property
+    def start(self) -> np.ndarray:
+        """(7,) [rad] the start state (the first state of every seed's path)."""
+        return self.paths[0][0][0]
+
+    def best(self) -> int:
+        """The seed whose TCP came nearest the goal so far."""
+        return int(np.argmin(self.best_err))
+
+    def restart(self, b: int, t: int, noise: float, generator: torch.Generator, guide_q: np.ndarray | None) -> None:
+        """Move stalled seed b to the best seed's last accepted state at iteration t, with a latent kick of std
+        `noise` [latent units]; guide_q (7,) [rad]: its goal configuration from now on (None: unchanged)."""
+        best = self.best()
+        if guide_q is not None:
+            self.guide_q[b] = guide_q
+            self.best_guide_err[b] = np.inf
+        with torch.no_grad():
+            self.z_prev[b] = self.z_prev[best]
+            self.z[b] = self.z_prev[best] + noise * torch.randn(self.z.shape[1], generator=generator)
+        for state in self.opt.state.values():  # forget this seed's optimiser moments
+            for v in state.values():
+                if torch.is_tensor(v) and v.dim() > 0:
+                    v[b] = 0.0
+        self.q_prev[b] = self.q_prev[best]
+        self.paths[b] = list(self.paths[best])
+        self.pending[b] = list(self.pending[best])
+        self.q_ok[b] = self.q_ok[best]
+        with torch.no_grad():
+            self.z_ok[b] = self.z_ok[best]
+        for geco in (self.target, self.col):  # the best seed's multipliers
+            geco.log_lambda[b] = geco.log_lambda[best]
+            if geco.c_ma is not None:
+                geco.c_ma[b] = geco.c_ma[best]
+        self.best_err[b], self.last_improved[b] = self.best_err[best], t
+        self.restarts += 1

@@ -1,10 +1,10 @@
 """AMP-LS: reaching by activation maximisation in the latent space of the robot-state VAE.
 
-Seed chapter 7, Algorithm 1: z_0 encodes the start state; every step decodes z_t, and if the decoded
-state's collision probability is below gamma_col, the linear interpolation from the last accepted state is
-checked explicitly. A colliding interpolation scales lambda_pos and lambda_ori by i/m and back-traces z to
-the last accepted latent; a free one is appended to the path. The loss weights are adapted by GECO
-(appendix 6.B.1) and z takes one optimiser step on
+Seed chapter 7, Algorithm 1: z_0 encodes the start state; every step decodes z_t, and if the decoded state's
+collision probability is below gamma_col, the linear interpolation from the last accepted state is checked
+explicitly. A colliding interpolation scales lambda_pos and lambda_ori by i/m and back-traces z to the last
+accepted latent; a free one is appended to the path. The loss weights are adapted by GECO (appendix 6.B.1) and
+z takes one optimiser step on
 
     L = lambda_pos |e_pos - target_pos| + lambda_ori |e_ori - target_ori| + lambda_col (-log(1 - p_col))
         + (-log p(z)).
@@ -12,24 +12,11 @@ the last accepted latent; a free one is appended to the path. The loss weights a
 `plan` runs this open loop; `step` runs it one tick at a time for closed-loop control, keeping z and the
 multipliers across ticks and accepting a new goal and scene at every tick.
 
-Beyond the seed, `plan` (not `step`) by default (each a switch of AmpLsConfig, measured in `bench table`):
-- lazy checks: a seed's accepted steps are checked in one batch once it reaches the goal; at the first colliding
-  step it back-traces to the state before, with the same i/m scaling. Seeds that never win are never checked.
-- exact finish: the seed nearest the goal, once within finish_radius_m, finishes by damped-least-squares IK from
-  its accepted state (the latent optimisation is slow over the last centimetres); the segment is checked.
-- shortcutting of the successful path (planning/shortcut.py), every shortcut checked like a step; shortcut
-  first: a seed that reaches the goal first tries the straight segment from the start, and its own unchecked
-  steps are checked only if that segment collides.
-- escape: a start that itself fails the hard check (conservative spheres touching noisy cloud points) does
-  not block the plan: states within escape_rad of it are not refused.
-- goal guidance: at the first restart, IK solutions of the goal that pass the hard check are searched once;
-  restarted seeds target one of them in joint space (a goal near the joint limits stalls the pose loss) and
-  finish by the checked straight segment to it.
-- RRT escape: once rrt_escape_after_s of wall time passed without the goal (or earlier, when the latent search
-  ends: every seed stalled or the step budget spent), RRTConnect searches joint space from the start to goal
-  configurations on the same hard check, within rrt_escape_budget_s (planning/escape.py); its path is shortcut
-  like any other, and the result says so (reason "reached (escape: rrt)", info["escape"]). If it finds nothing,
-  the latent search goes on to its own end.
+The planner is composed of parts, each built from its sub-configuration (config.py; None = off):
+- `search.LatentSearch`: the latent seeds (search.n_seeds) and their restarts;
+- `checker.SegmentChecker`: the hard check of interpolated steps, the start's escape, lazy verification;
+- `finish.StraightFirst`, `finish.ExactFinish`, `finish.GoalGuidance`: finishing by checked straight segments;
+- `escape_part.RrtEscapePart`: RRTConnect on the same hard check when the latent search stalls.
 """
 
 from __future__ import annotations
@@ -41,14 +28,16 @@ import numpy as np
 import torch
 
 from latent_planner_ros.models.vae import RobotStateVAE
-from latent_planner_ros.planning.amp_ls_additions import PlanAdditions
-from latent_planner_ros.planning.amp_ls_config import AmpLsConfig
-from latent_planner_ros.planning.amp_ls_search import LatentSearch, StepResult
+from latent_planner_ros.planning.amp_ls.checker import SegmentChecker
+from latent_planner_ros.planning.amp_ls.config import AmpLsConfig
+from latent_planner_ros.planning.amp_ls.escape_part import RrtEscapePart
+from latent_planner_ros.planning.amp_ls.finish import ExactFinish, GoalGuidance, StraightFirst
+from latent_planner_ros.planning.amp_ls.search import LatentSearch, StepResult
 from latent_planner_ros.planning.collision_backend import CollisionBackend
-from latent_planner_ros.planning.escape import RrtEscape
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.plan_clock import PlanClock
 from latent_planner_ros.planning.result import PlanResult
+from latent_planner_ros.planning.shortcut import shortcut
 from latent_planner_ros.planning.time_parameterisation import interpolate, time_parameterise
 from latent_planner_ros.robot.collision import CollisionChecker
 from latent_planner_ros.robot.limits import Q_MAX, Q_MIN, Q_READY, V_MAX
@@ -58,13 +47,13 @@ from latent_planner_ros.robot.state import robot_state
 from latent_planner_ros.robot.torch_fk import TorchFK
 
 
-class AmpLs(PlanAdditions):
+class AmpLs:
     """The AMP-LS planner over a frozen VAE and a collision backend.
 
     Args:
         vae: the robot-state VAE (eval mode; its weights are not changed).
         backend: collision backend used for the collision loss and the explicit checks.
-        config: planner configuration.
+        config: planner configuration (setting `config` later rebuilds the parts).
         seed: seed of the planner's own torch generator (extra latent seeds).
     """
 
@@ -75,19 +64,56 @@ class AmpLs(PlanAdditions):
         for p in self.vae.parameters():
             p.requires_grad_(False)
         self.backend = backend
-        self.config = config or AmpLsConfig()
         self.generator = torch.Generator().manual_seed(seed)
         self.fk64 = TorchFK(dtype=torch.float64)
-        self.checker = CollisionChecker(convex=True)
         self.panda = load_panda()
-        self._escape_from: np.ndarray | None = None  # plan: the start, while states near it are not refused
-        self._search: LatentSearch | None = None
         self.clock = PlanClock()  # where `plan`'s time goes (PlanResult.timings)
-        # the sampled escape of open-loop plans, on the hard check of the accepted steps (None: off)
-        self.escape = RrtEscape(self._free, self._densify) if self.config.rrt_escape_budget_s > 0 else None
+        self._robot_checker = CollisionChecker(convex=True)
+        self._search: LatentSearch | None = None  # the closed loop's search, kept across ticks
+        self.config = config or AmpLsConfig()
 
-    # -- shared pieces -----------------------------------------------------------------------------
-    def _decode(self, z: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    @property
+    def config(self) -> AmpLsConfig:
+        """The configuration; setting it rebuilds the parts."""
+        return self._config
+
+    @config.setter
+    def config(self, config: AmpLsConfig) -> None:
+        self._config = config
+        self.segments = SegmentChecker(self.backend, config, self.clock, self._robot_checker)
+        self.straight = StraightFirst(self.segments) if config.plan.shortcut else None
+        lazy = config.checks.lazy
+        self.finisher = (
+            None
+            if config.finish is None
+            else ExactFinish(config.finish, self.panda, self.segments, self.clock, self.straight, lazy)
+        )
+        self.guidance = (
+            None
+            if config.guidance is None
+            else GoalGuidance(config.guidance, self.panda, self.segments, self.clock, self.generator)
+        )
+        self.escape = (
+            None
+            if config.escape is None
+            else RrtEscapePart(config.escape, self.panda, self.segments, self.clock, self.generator)
+        )
+
+    @property
+    def checker(self) -> CollisionChecker:
+        """The exact self- and table-collision checker of the hard check (checks.self_check)."""
+        return self._robot_checker
+
+    @checker.setter
+    def checker(self, checker: CollisionChecker) -> None:
+        self._robot_checker = self.segments.robot = checker
+
+    def new_search(self, start_q: np.ndarray, n_seeds: int | None = None, lr: float | None = None) -> LatentSearch:
+        """A latent search from start_q (7,) [rad] with this planner's VAE, configuration and generator."""
+        return LatentSearch(self.vae, self.config, self.generator, start_q, n_seeds, lr)
+
+    # -- Algorithm 1 -----------------------------------------------------------------------------------
+    def decode(self, z: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """Decoded q (B, 7), TCP position (B, 3) and 6D orientation (B, 6) used by the target losses, and
         p(collision) (B,), all differentiable in z (B, L). With the kinematic decoder, one FK of every link frame
         gives the TCP pose and, to a backend that takes link frames (the learned one), the collision network's
@@ -102,12 +128,12 @@ class AmpLs(PlanAdditions):
         else:
             dec = self.vae.decode(z)
             q, pos, ori = dec.q, dec.pos, dec.rot6d
-            if cfg.target_on_fk:
+            if cfg.search.target_on_fk:
                 x = robot_state(q, self.vae.fk)
                 pos, ori = x[:, 7:10], x[:, 10:16]
         if not cfg.use_collision:
             return q, pos, ori, torch.zeros(len(q), dtype=z.dtype)
-        if frames is not None and getattr(self.backend, "takes_frames", False):
+        if frames is not None and self.backend.takes_frames:
             return q, pos, ori, self.backend.p_collision(q, z, frames=frames)
         return q, pos, ori, self.backend.p_collision(q, z)
 
@@ -117,17 +143,19 @@ class AmpLs(PlanAdditions):
         ori_err = rotation_angle_between(rot6d_to_matrix(rot6d), target_r.expand(len(pos), 3, 3))
         return pos_err.detach().numpy().astype(float), ori_err.detach().numpy().astype(float)
 
-    def _reached(self, pos_err: float, ori_err: float, goal: Goal) -> bool:
+    def reached(self, pos_err: float, ori_err: float, goal: Goal) -> bool:
+        """Within the goal's tolerances (position only unless use_orientation)."""
         return pos_err < goal.pos_tol and (ori_err < goal.ori_tol or not self.config.use_orientation)
 
-    def _iterate(self, s: LatentSearch, goal: Goal, accept: bool, lazy: bool = False) -> dict:
-        """One iteration of Algorithm 1 for every seed; returns what happened.
+    def iterate(self, s: LatentSearch, goal: Goal, accept: bool, lazy: bool = False) -> dict:
+        """One iteration of Algorithm 1 for every seed of `s`; returns what happened (seeds "accepted",
+        "reached", "backtraced", "rejected"; per-seed "pos_err" [m], "ori_err" [rad], "p_col").
 
-        lazy: accepted steps are hard-checked only when a seed reaches the goal (`_verify`), not one by one.
+        lazy: accepted steps are hard-checked only when a seed reaches the goal (SegmentChecker.verify).
         """
         cfg = self.config
-        events = {"accepted": [], "reached": [], "backtraced": [], "rejected": []}
-        q, pos, ori, p_col = self._decode(s.z)
+        events: dict = {"accepted": [], "reached": [], "backtraced": [], "rejected": []}
+        q, pos, ori, p_col = self.decode(s.z)
         pos_err, ori_err = self._errors(pos, ori, goal)
         if accept:
             q_np, p_np = q.detach().double().numpy(), p_col.detach().numpy()
@@ -139,7 +167,7 @@ class AmpLs(PlanAdditions):
                 events["pos_err"], events["ori_err"], events["p_col"] = pos_err, ori_err, p_col.detach().numpy()
                 return events
             if events["backtraced"]:
-                q, pos, ori, p_col = self._decode(s.z)
+                q, pos, ori, p_col = self.decode(s.z)
         target_pos = torch.as_tensor(goal.position, dtype=pos.dtype)
         target_ori = matrix_to_rot6d(torch.as_tensor(goal.rotation, dtype=pos.dtype))
         l_pos = (pos - target_pos).norm(dim=-1)
@@ -176,14 +204,14 @@ class AmpLs(PlanAdditions):
     def _accept_eagerly(self, s: LatentSearch, goal: Goal, candidates, q_np, pos_err, ori_err, events) -> None:
         """Algorithm 1: check the step of every seed in candidates to its decoded state q_np[b] (one batch); accept
         the free ones, back-trace the colliding ones (lambda_target scaled by i/m)."""
-        cfg = self.config
-        segs = {int(b): interpolate(s.q_prev[b], q_np[b], self._n_checks(s.q_prev[b], q_np[b])) for b in candidates}
-        all_hits = self._check_segments(list(segs.values()))
+        keep_frac = self.config.checks.backtrace_keep
+        segs = {int(b): self.segments.densify(s.q_prev[b], q_np[b]) for b in candidates}
+        all_hits = self.segments.check_segments(list(segs.values()))
         for b, seg, hits in zip(segs, segs.values(), all_hits, strict=True):
             if hits.any():
                 i = int(np.argmax(hits)) + 1
                 s.target.scale(np.where(np.arange(len(q_np)) == b, i / len(seg), 1.0))
-                keep = int(cfg.backtrace_keep * (i - 1))  # free states of the step kept on the path
+                keep = int(keep_frac * (i - 1))  # free states of the step kept on the path
                 with torch.no_grad():
                     if keep > 0:
                         s.paths[b].append(seg[:keep])
@@ -198,98 +226,64 @@ class AmpLs(PlanAdditions):
             s.q_prev[b] = q_np[b]
             with torch.no_grad():
                 s.z_prev[b] = s.z[b]
-            if self._reached(pos_err[b], ori_err[b], goal):
+            if self.reached(pos_err[b], ori_err[b], goal):
                 events["reached"].append(b)
 
     def _accept_lazily(self, s: LatentSearch, goal: Goal, candidates, q_np, pos_err, ori_err, events) -> None:
-        """Accept the decoded states q_np[candidates] unchecked; check the seeds that reach the goal (one batch)
-        and back-trace those whose steps collide."""
+        """Accept the decoded states q_np[candidates] unchecked; check the seeds that reach the goal (one batch,
+        after the straight segment from the start when it is on) and back-trace those whose steps collide."""
         due = []
         for b in (int(b) for b in candidates):
             s.pending[b].append((q_np[b].copy(), s.z[b].detach().clone()))
             s.q_prev[b] = q_np[b]
             with torch.no_grad():
                 s.z_prev[b] = s.z[b]
-            if self._reached(pos_err[b], ori_err[b], goal):
+            if self.reached(pos_err[b], ori_err[b], goal):
                 due.append(b)
-        hit = set(self._verify(s, [b for b in due if not self._direct(s, b)]))
+        unchecked = [b for b in due if self.straight is None or not self.straight.try_end(s, b)]
+        hit = set(self.segments.verify(s, unchecked))
         for b in (int(b) for b in candidates):
             if b in hit:
                 events["backtraced"].append(b)
                 continue
             events["accepted"].append(b)
-            if self._reached(pos_err[b], ori_err[b], goal):
+            if self.reached(pos_err[b], ori_err[b], goal):
                 events["reached"].append(b)
 
-    def _verify(self, s: LatentSearch, seeds: list[int]) -> list[int]:
-        """Hard-check the unchecked steps of `seeds` in one batch. A free chain joins the path; a colliding one
-        joins it up to the step that collides, and the seed back-traces to the state before that step (its
-        target weights scaled by i/m, as in Algorithm 1). Returns the seeds that back-traced."""
-        chains = {}
-        for b in seeds:
-            vertices = [s.q_ok[b]] + [q for q, _ in s.pending[b]]
-            chains[b] = [
-                interpolate(a, c, self._n_checks(a, c)) for a, c in zip(vertices[:-1], vertices[1:], strict=True)
-            ]
-        hits = iter(self._check_segments([seg for b in seeds for seg in chains[b]]))
-        backtraced = []
-        for b in seeds:
-            chain = chains[b]
-            chain_hits = [next(hits) for _ in chain]
-            bad = [k for k, h in enumerate(chain_hits) if h.any()]
-            j = bad[0] if bad else len(chain)
-            s.paths[b].extend(chain[:j])
-            if j > 0:
-                s.q_ok[b], s.z_ok[b] = s.pending[b][j - 1][0], s.pending[b][j - 1][1]
-            s.pending[b] = []
-            if not bad:
-                continue
-            i = int(np.argmax(chain_hits[j])) + 1
-            s.target.scale(np.where(np.arange(len(s.q_prev)) == b, i / len(chain[j]), 1.0))
-            s.q_prev[b] = s.q_ok[b]
-            with torch.no_grad():
-                s.z_prev[b] = s.z_ok[b]
-                s.z[b] = s.z_ok[b]
-            s.backtraces += 1
-            backtraced.append(b)
-        return backtraced
-
-    def _direct_target(self, q_from: np.ndarray, q_last: np.ndarray, q_first: np.ndarray) -> np.ndarray:
-        """The state to command from q_from (7,) [rad]: q_last when the straight segment to it passes the hard
-        check (no check needed when it is q_first, whose segment was checked), else q_first."""
-        if np.array_equal(q_last, q_first):
-            return q_last
-        seg = interpolate(q_from, q_last, self._n_checks(q_from, q_last))
-        return q_first if self._check_segments([seg])[0].any() else q_last
+    def _restart_stalled(self, s: LatentSearch, b: int, t: int, goal: Goal) -> None:
+        """Restart stalled seed b at iteration t from the best seed, targeting a goal configuration when goal
+        guidance is on."""
+        guide = None if self.guidance is None else self.guidance.target_for_restart(s, goal)
+        s.restart(b, t, self.config.search.seed_noise * self.config.search.restart_scale, self.generator, guide)
 
     # -- open loop ------------------------------------------------------------------------------------
     def plan(
         self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None, origin: np.ndarray | None = None
     ) -> PlanResult:
         """Plan from start_q (7,) [rad] to `goal`; `cloud` (N, 3) [m] is the observed scene, seen from the camera
-        origin (3,) [m] if known (a scene embedding for the learned backend). With geometric_retry, a failure with
-        the network is planned again with the geometric backend in the time left (info["geometric_retry"])."""
-        result = self._plan_once(start_q, goal, cloud, origin)
+        origin (3,) [m] if known (a scene embedding for the learned backend). With plan.geometric_retry, a failure
+        with the network is planned again with the geometric backend in the time left (info["geometric_retry"])."""
         cfg, backend = self.config, self.backend
-        left = cfg.timeout_s - result.planning_time_s if cfg.timeout_s > 0 else np.inf
-        if result.success or not cfg.geometric_retry or getattr(backend, "mode", "") != "learned" or left < 0.1:
+        result = self._plan_once(start_q, goal, cloud, origin, cfg.plan.timeout_s)
+        left = cfg.plan.timeout_s - result.planning_time_s if cfg.plan.timeout_s > 0 else np.inf
+        if result.success or not cfg.plan.geometric_retry or backend.mode != "learned" or left < 0.1:
             return result
         t0 = time.perf_counter()
-        self.config = replace(cfg, timeout_s=0.0 if not np.isfinite(left) else left)
-        try:
-            with backend.geometric_only():
-                retry = self._plan_once(start_q, goal, cloud, origin)
-        finally:
-            self.config = cfg
+        with backend.geometric_only():
+            retry = self._plan_once(start_q, goal, cloud, origin, 0.0 if not np.isfinite(left) else left)
         spent = result.planning_time_s + (time.perf_counter() - t0)
         retry.info["geometric_retry"] = f"after the network's {result.reason}"
         return replace(retry, planning_time_s=spent, timings={**retry.timings, "total_s": spent})
 
     def _plan_once(
-        self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None, origin: np.ndarray | None = None
+        self,
+        start_q: np.ndarray,
+        goal: Goal,
+        cloud: np.ndarray | None,
+        origin: np.ndarray | None,
+        timeout_s: float,
     ) -> PlanResult:
-        """One plan with the backend as it is (see `plan`); `cloud` (N, 3) [m] is the observed scene, seen from
-        the camera origin (3,) [m] if known.
+        """One plan with the backend as it is (see `plan`) within timeout_s [s] (0: the step budget alone).
 
         The result's info["start_refused"] says whether the start itself failed the hard check (see escape_rad).
         """
@@ -302,25 +296,34 @@ class AmpLs(PlanAdditions):
         if cfg.use_collision:
             with self.clock.section("scene"):
                 self.backend.set_scene(np.zeros((0, 3)) if cloud is None else cloud, origin)
-        # a start refused by the (conservative) hard check: let the arm move out of it (escape_rad)
-        self._escape_from = None
-        start_refused = bool(self._check_segments([start_q[None]])[0][0])
-        if start_refused and cfg.escape_rad > 0:
-            self._escape_from = start_q
-        s = LatentSearch(self, start_q, lr=cfg.plan_lr)
+        # a start refused by the (conservative) hard check: let the arm move out of it (checks.escape_rad)
+        self.segments.escape_from = None
+        start_refused = not self.segments.state_free(start_q)
+        if start_refused and cfg.checks.escape_rad > 0:
+            self.segments.escape_from = start_q
+        try:
+            return self._search_and_finish(start_q, goal, t0, timeout_s, start_refused)
+        finally:
+            self.segments.escape_from = None
+
+    def _search_and_finish(
+        self, start_q: np.ndarray, goal: Goal, t0: float, timeout_s: float, start_refused: bool
+    ) -> PlanResult:
+        cfg = self.config
+        s = self.new_search(start_q, lr=cfg.search.plan_lr)
         t_setup = time.perf_counter() - t0
-        winner = self._direct_first(s, goal) if cfg.direct_first else None
+        winner = self.finisher.direct_first(s, goal) if self.finisher is not None else None
         straight = winner is not None
         reason = "step budget exhausted" if winner is None else "reached"
-        escape_at = t0 + cfg.rrt_escape_after_s if self.escape is not None else np.inf  # [s] perf_counter
+        escape_at = t0 + self.escape.config.after_s if self.escape is not None else np.inf  # [s] perf_counter
         escaped = ""  # what the RRT escape reported, once it ran
         for t in range(cfg.max_steps if winner is None else 0):
             with self.clock.section("steps"):
-                ev = self._iterate(s, goal, accept=t > 0, lazy=cfg.lazy_check)
+                ev = self.iterate(s, goal, accept=t > 0, lazy=cfg.checks.lazy)
             if ev["reached"]:
                 winner, reason = ev["reached"][0], "reached"
                 break
-            if cfg.finish_radius_m > 0 and t > 0 and (b := self._finish(s, goal, ev)) is not None:
+            if self.finisher is not None and t > 0 and (b := self.finisher.finish(s, goal, ev)) is not None:
                 winner, reason = b, "reached"
                 break
             err = ev["pos_err"]
@@ -331,25 +334,25 @@ class AmpLs(PlanAdditions):
                 improved |= guide_err < s.best_guide_err - 0.01
             s.best_guide_err = np.fmin(s.best_guide_err, guide_err)
             s.last_improved = np.where(improved, t, s.last_improved)
-            stalled = t - s.last_improved > cfg.patience
-            if stalled.any() and s.restarts < cfg.restarts:
-                for b in np.flatnonzero(stalled)[: cfg.restarts - s.restarts]:
-                    self._restart(s, int(b), t, goal)
+            stalled = t - s.last_improved > cfg.search.patience
+            if stalled.any() and s.restarts < cfg.search.restarts:
+                for b in np.flatnonzero(stalled)[: cfg.search.restarts - s.restarts]:
+                    self._restart_stalled(s, int(b), t, goal)
             elif np.all(stalled):
                 reason = "no progress"
                 break
-            if cfg.timeout_s > 0 and time.perf_counter() - t0 > cfg.timeout_s:
-                reason = f"timeout ({cfg.timeout_s:g} s)"
+            if timeout_s > 0 and time.perf_counter() - t0 > timeout_s:
+                reason = f"timeout ({timeout_s:g} s)"
                 break
-            if time.perf_counter() > escape_at:  # the escape, once; if it fails, the latent search goes on
+            if self.escape is not None and time.perf_counter() > escape_at:  # once; if it fails, the search goes on
                 escape_at = np.inf
-                winner, escaped = self._escape_by_rrt(s, goal)
+                winner, escaped = self.escape.run(s, goal)
                 if winner is not None:
                     reason = "reached"
                     break
         timed_out = reason.startswith("timeout")
         if winner is None and self.escape is not None and not escaped and not timed_out:  # stalled early
-            winner, escaped = self._escape_by_rrt(s, goal)
+            winner, escaped = self.escape.run(s, goal)
             reason = "reached" if winner is not None else reason
         if winner is None and escaped:
             reason = f"{reason}; {escaped}"
@@ -357,78 +360,52 @@ class AmpLs(PlanAdditions):
             s.paths = [[start_q[None]] for _ in s.paths]  # the start alone, a path known to pass the check
             winner = 0
         elif winner is None:
-            self._verify(s, [b for b in range(len(s.paths)) if s.pending[b]])
+            self.segments.verify_all(s)
             ends = np.array([self._fk_err(p[-1][-1], goal)[0] for p in s.paths])
             winner = int(np.argmin(ends))
         q_path = np.concatenate(s.paths[winner])
-        if cfg.shortcut and reason == "reached":
+        if cfg.plan.shortcut and reason == "reached":
             q_path = self._shortcut(s.paths[winner])
-        if reason == "reached" and escaped and self._check_segments([q_path])[0].any():
+        if reason == "reached" and escaped and self.segments.check_segments([q_path])[0].any():
             reason = "escape: rrt path failed the final hard check"  # by construction never; kept as a guard
-        self._escape_from = None
         result = self._result(s, q_path, winner, goal, reason, time.perf_counter() - t0, t_setup, escaped)
         result.info["start_refused"] = start_refused
-        result.info["collision_backend"] = getattr(self.backend, "mode", getattr(self.backend, "name", ""))
+        result.info["collision_backend"] = self.backend.mode
         result.info["goal_configurations"] = -1 if s.goal_qs is None else len(s.goal_qs)  # -1: not searched
         result.info["guided"] = bool(np.isfinite(s.guide_q[winner, 0]))
         result.info["direct_first"] = straight  # solved by the straight segment before any optimisation step
         return result
 
-    def _densify(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
-        """The states (m, 7) [rad] hard-checked on the straight segment q_from (7,) -> q_to (7,) [rad], q_from
-        excluded: the interpolation of an accepted step."""
-        return interpolate(q_from, q_to, self._n_checks(q_from, q_to))
-
-    def _n_checks(self, q_from: np.ndarray, q_to: np.ndarray) -> int:
-        """m, the states checked on a step: interp_steps, or (check_step_rad > 0) one per check_step_rad [rad]."""
-        if self.config.check_step_rad <= 0:
-            return self.config.interp_steps
-        return max(1, int(np.ceil(np.abs(q_to - q_from).max() / self.config.check_step_rad)))
+    def _shortcut(self, path: list[np.ndarray]) -> np.ndarray:
+        """The checked chain `path` (segments, each ending at an accepted state) shortened by `shortcut`, densified
+        at the check resolution: (T, 7) [rad]."""
+        vertices = np.stack([seg[-1] for seg in path])
+        kept = shortcut(
+            vertices,
+            self.segments.densify,
+            lambda segs: [np.array([not self.segments.free(seg)]) for seg in segs],
+        )
+        segs = [vertices[:1]] + [
+            self.segments.densify(vertices[a], vertices[b]) for a, b in zip(kept[:-1], kept[1:], strict=True)
+        ]
+        return np.concatenate(segs)
 
     def segment_free(self, q_from: np.ndarray, q_to: np.ndarray, escape_from: np.ndarray | None = None) -> bool:
         """True if the straight segment q_from (7,) -> q_to (7,) [rad] passes the hard check against the backend's
         current scene (the closed loop's check of a command that did not come from `step`). escape_from (7,)
-        [rad]: the start of a plan whose start the check refused; states within escape_rad of it are let pass, as
-        `plan` let them (see escape_rad)."""
-        self._escape_from = None if escape_from is None or self.config.escape_rad <= 0 else escape_from
+        [rad]: the start of a plan whose start the check refused; states within checks.escape_rad of it are let
+        pass, as `plan` let them."""
+        relax = escape_from is not None and self.config.checks.escape_rad > 0
+        self.segments.escape_from = escape_from if relax else None
         try:
-            return self._free(self._densify(np.asarray(q_from, dtype=float), np.asarray(q_to, dtype=float)))
+            return self.segments.segment_free(q_from, q_to)
         finally:
-            self._escape_from = None
+            self.segments.escape_from = None
 
     def arm_at_goal(self, q: np.ndarray, goal: Goal) -> tuple[bool, float, float]:
         """(within tolerance, position error [m], orientation error [rad]) of q's (7,) [rad] TCP pose to goal."""
         pe, oe = self._fk_err(np.asarray(q, dtype=float), goal)
-        return self._reached(pe, oe, goal), pe, oe
-
-    def _free(self, seg: np.ndarray, stride: int = 4) -> bool:
-        """True if every state of the segment (m, 7) [rad] passes the hard check: every stride-th state first, the
-        rest only if those pass (a colliding segment is usually refused at a quarter of the cost)."""
-        coarse = np.zeros(len(seg), dtype=bool)
-        coarse[stride - 1 :: stride] = True
-        coarse[-1] = True
-        if self._check_segments([seg[coarse]])[0].any():
-            return False
-        return not (len(seg) > coarse.sum() and self._check_segments([seg[~coarse]])[0].any())
-
-    def _check_segments(self, segs: list[np.ndarray]) -> list[np.ndarray]:
-        """Hard checks of interpolated segments [(m, 7)] in one batch: a (m,) bool hit mask per segment."""
-        if not segs:
-            return []
-        with self.clock.section("check"):
-            return self._check_states(segs)
-
-    def _check_states(self, segs: list[np.ndarray]) -> list[np.ndarray]:
-        states = np.concatenate(segs)
-        self.clock.counts["checked_states"] += len(states)
-        hits = self.backend.check(states) if self.config.use_collision else np.zeros(len(states), dtype=bool)
-        ends = np.cumsum([len(seg) for seg in segs])[:-1]
-        if self.config.self_check:  # only the states before each segment's first hit matter
-            todo = np.concatenate([np.cumsum(h) == 0 for h in np.split(hits, ends)])
-            hits[todo] |= ~self.checker.feasible(states[todo])
-        if self._escape_from is not None:
-            hits &= np.abs(states - self._escape_from).max(axis=1) > self.config.escape_rad
-        return np.split(hits, ends)
+        return self.reached(pe, oe, goal), pe, oe
 
     def _fk_err(self, q: np.ndarray, goal: Goal) -> tuple[float, float]:
         pos, rot = self.fk64.ee_pose(torch.as_tensor(q, dtype=torch.float64)[None])
@@ -452,7 +429,7 @@ class AmpLs(PlanAdditions):
         with torch.no_grad():
             pos, rot = self.fk64.ee_pose(torch.as_tensor(q_path))
         pos_err, ori_err = self._fk_err(q_path[-1], goal)
-        success = reason == "reached" and self._reached(pos_err, ori_err, goal)
+        success = reason == "reached" and self.reached(pos_err, ori_err, goal)
         timings = self.clock.totals()
         timings["other_s"] = max(0.0, elapsed - sum(timings.values()))  # set-up, bookkeeping, shortcutting
         if success and escaped == "escape: rrt":  # the escape's path (not a latent success after a failed escape)
@@ -483,14 +460,27 @@ class AmpLs(PlanAdditions):
         """Run a few optimisation steps once, so the first real plan or tick does not pay torch's lazy set-up."""
         pos, rot = self.fk64.ee_pose(torch.as_tensor(Q_READY, dtype=torch.float64)[None])
         goal = Goal(pos[0].numpy(), rot[0].numpy())
-        s = LatentSearch(self, Q_READY.copy())
+        s = self.new_search(Q_READY.copy())
         for accept in (False, True, True):
-            self._iterate(s, goal, accept=accept)
+            self.iterate(s, goal, accept=accept)
 
     # -- closed loop --------------------------------------------------------------------------------------
     def reset(self) -> None:
         """Forget the closed-loop state (the next `step` re-encodes the measured state)."""
         self._search = None
+
+    @property
+    def closed_loop_search(self) -> LatentSearch | None:
+        """The closed loop's latent search (None before the first `step` and after `reset`)."""
+        return self._search
+
+    def command_target(self, q_from: np.ndarray, q_last: np.ndarray, q_first: np.ndarray) -> np.ndarray:
+        """The state to command from q_from (7,) [rad]: q_last when the straight segment to it passes the hard
+        check (no check needed when it is q_first, whose segment was checked), else q_first."""
+        if np.array_equal(q_last, q_first):
+            return q_last
+        seg = interpolate(q_from, q_last, self.segments.n_checks(q_from, q_last))
+        return q_first if self.segments.check_segments([seg])[0].any() else q_last
 
     def step(
         self,
@@ -513,7 +503,7 @@ class AmpLs(PlanAdditions):
         exceeds speed_scale * its velocity limit over dt [s].
         """
         cfg = self.config
-        self._escape_from = None  # the closed loop never relaxes the hard check
+        self.segments.escape_from = None  # the closed loop never relaxes the hard check
         q_measured = np.asarray(q_measured, dtype=float)
         if cloud is not None and cfg.use_collision:
             self.backend.set_scene(cloud)
@@ -521,7 +511,7 @@ class AmpLs(PlanAdditions):
         # re-encode when the arm is not where the last command sent it (a reset, a push, a stale start);
         # the latent state may run ahead of the arm, whose commands are velocity-limited
         if s is None or np.abs(s.q_command - q_measured).max() > resync_rad:
-            s = self._search = LatentSearch(self, q_measured, cfg.closed_loop_seeds)
+            s = self._search = self.new_search(q_measured, cfg.search.closed_loop_seeds)
         s.q_prev[:] = q_measured  # the robot is where it is: check from here
         ev: dict = {}
         first_accepted: dict[int, np.ndarray] = {}  # seed -> its first state accepted in this tick
@@ -529,7 +519,7 @@ class AmpLs(PlanAdditions):
         t_start = time.perf_counter()
         for _ in range(max_iterations):
             t_iter = time.perf_counter()
-            ev = self._iterate(s, goal, accept=True)
+            ev = self.iterate(s, goal, accept=True)
             for i in ev["accepted"]:
                 first_accepted.setdefault(i, s.q_prev[i].copy())
             n_accepted += bool(ev["accepted"])
@@ -543,7 +533,7 @@ class AmpLs(PlanAdditions):
         candidates = ev.get("reached") or list(first_accepted) or [0]
         b = min(candidates, key=lambda i: float(ev["pos_err"][i]) if "pos_err" in ev else 0.0)  # the closest seed
         accepted = b in first_accepted
-        target = self._direct_target(q_measured, s.q_prev[b], first_accepted[b]) if accepted else q_measured
+        target = self.command_target(q_measured, s.q_prev[b], first_accepted[b]) if accepted else q_measured
         delta = target - q_measured
         limit = cfg.speed_scale * V_MAX * dt
         scale = min(1.0, float(np.min(limit / np.maximum(np.abs(delta), 1e-12))))
@@ -551,7 +541,7 @@ class AmpLs(PlanAdditions):
         s.q_command = command
         pos_err, ori_err = self._fk_err(s.q_prev[b], goal)
         arm_pos_err, arm_ori_err = self._fk_err(q_measured, goal)
-        reached = self._reached(pos_err, ori_err, goal) and self._reached(arm_pos_err, arm_ori_err, goal)
+        reached = self.reached(pos_err, ori_err, goal) and self.reached(arm_pos_err, arm_ori_err, goal)
         if reached:
             reason = "reached"
         elif accepted:
