@@ -30,7 +30,7 @@ ROSDEP_KEYS = {
 """Imported module -> its rosdep key, for the libraries package.xml declares as rosdep keys."""
 REQUIREMENT_MODULES = {"pyyaml": "yaml", "pin": "pinocchio"}
 """requirements.txt name -> imported module, where they differ."""
-TOOLING = ("ros-jazzy-", "setuptools", "colcon-", "pytest", "ruff", "import-linter")
+TOOLING = ("ros-jazzy-", "setuptools", "colcon-", "pytest", "ruff", "import-linter", "mypy", "types-", "scipy-stubs")
 """requirements.txt entries that are ROS itself (pip wheels) or build and test tools, not runtime libraries."""
 
 

@@ -3,8 +3,8 @@
 A second, helper node (`<node>_services`) holds the services under the owner's names (e.g. `/planner/plan`)
 and is spun by its own single-threaded executor on a daemon thread; the owner keeps its single-threaded
 executor for the control loop. (rclpy's MultiThreadedExecutor would also keep a timer ticking during a long
-callback, but measured on the conveyor it cost the planner's 10 Hz loop: tick p99 21 -> 62 ms, 0 -> 32 missed
-control periods in 5 trials.) The callbacks run on the service thread: they must guard shared state.
+callback, but on the conveyor it cost the planner's 10 Hz loop tick time and missed control periods; the figures
+are in docs/benchmark.md.) The callbacks run on the service thread: they must guard shared state.
 """
 
 from __future__ import annotations

@@ -30,10 +30,9 @@ DOMAIN_SHARE = 0.2
 """default `domain_share`: on the shipped sets' clouds, no tabletop scene has more than 0.18 of its occupied
 voxels outside the shipped network's box, and 48 of the first 60 workcell scenes have more than 0.2"""
 CHECK_THRESHOLD = 0.2
-"""p(collision) at or above which the hard check refuses a configuration: the lowest threshold that keeps the
-shipped network's precision on near-object queries of the held-out family's validation scenes at 0.88 or more
-(0.19 there: 0.885 precision, 0.922 recall at 0.2; docs/training.md), equal to the acceptance threshold
-gamma_col; on the planning tuning set it refused one unsafe plan more than 0.3 did, at no loss of success."""
+"""p(collision) at or above which the hard check refuses a configuration: about the lowest threshold that keeps
+the shipped network's precision on near-object queries of the held-out family's validation scenes at 0.88 or more,
+equal to the acceptance threshold gamma_col (how it was chosen: docs/training.md)."""
 
 
 class LearnedBackend(BackendDefaults):

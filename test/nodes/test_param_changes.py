@@ -137,9 +137,10 @@ def test_planner(ros):
 
     def current(name):
         c = node.config
-        assert node.modes.amp_ls.config == c.closed_loop and node.modes.lspp.config == c.closed_loop
-        assert node.modes.amp_ls.planner.config == c.amp_ls and node.plan_planner.config == c.amp_ls
-        assert node.modes.lspp.planner.config == c.lspp
+        loop, amp_ls = c.closed_loop_config(), c.amp_ls_config()
+        assert node.modes.amp_ls.config == loop and node.modes.lspp.config == loop
+        assert node.modes.amp_ls.planner.config == amp_ls and node.plan_planner.config == amp_ls
+        assert node.modes.lspp.planner.config == c.lspp_config()
         assert ticks_at(node._tick_timer, c.closed_loop.rate_hz)
         assert ticks_at(node._status_timer, c.status_rate_hz)
         assert node.fusion.max_age_s == c.cloud_max_age_s
@@ -147,7 +148,8 @@ def test_planner(ros):
 
     outcomes = walk(node, executor, param_specs(PlannerNodeConfig(), RANGES, READ_ONLY), current, settle)
     assert outcomes["amp_ls.lr"] == "applied" and outcomes["closed_loop.rate_hz"] == "applied"
-    assert outcomes["cloud_topics"].startswith("refused")
+    assert outcomes["amp_ls.preset"].startswith("refused: amp_ls.preset must be one of")  # an unknown preset
+    assert outcomes["cloud_topics"].startswith("refused") and outcomes["tuning_file"].startswith("refused")
 
 
 def test_ompl_planner(ros):

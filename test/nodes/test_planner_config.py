@@ -94,3 +94,12 @@ def test_a_tuning_file_sets_what_the_parameters_do_not(tmp_path):
 def test_a_bad_tuning_file_is_refused_with_the_field(tmp_path, text, message):
     with pytest.raises(ValueError, match=message):
         _tuned(tmp_path, text)
+
+
+def test_presets_are_chosen_by_name_and_the_parameters_apply_over_them():
+    config = from_params(PlannerNodeConfig, {"amp_ls.preset": "seed", "amp_ls.n_seeds": 2, "lspp.preset": "lspp_seed"})
+    amp = config.amp_ls_config()
+    assert amp.finish is None and amp.escape is None and not amp.checks.lazy  # the seed's Algorithm 1
+    assert amp.search.n_seeds == 2 and amp.search.plan_lr == 0.3  # the node's parameters over it
+    lspp = config.lspp_config()
+    assert lspp.search.n_seeds == 1 and lspp.max_steps == 300 and lspp.tau_col == 0.7
