@@ -21,6 +21,11 @@ from latent_planner_ros.planning.collision_backend import BackendDefaults
 
 CHECKS = ("exact", "none")
 
+CHECK_MARGIN_M = 0.01
+"""[m] the exact check's cylinders are this much wider (radius) and taller than the given ones: the checked states
+of a segment lie up to check_step_rad apart in every joint, and a part of the arm passing between two of them can
+graze a cylinder both states clear"""
+
 
 class CylinderBackend(BackendDefaults):
     """Collision backend over an LSPP cylinder classifier.
@@ -28,13 +33,17 @@ class CylinderBackend(BackendDefaults):
     Args:
         classifier: p(collision | z, o), trained on the planner's VAE.
         check: "exact" (coal meshes vs the cylinders) or "none" (no explicit check, as in the seed).
+        margin_m: [m] the exact check's cylinders grown by this in radius and height (CHECK_MARGIN_M).
     """
 
     name = "cylinders"
 
-    def __init__(self, classifier: CylinderClassifier, check: str = "exact"):
+    def __init__(self, classifier: CylinderClassifier, check: str = "exact", margin_m: float = CHECK_MARGIN_M):
         if check not in CHECKS:
             raise ValueError(f"check must be one of {CHECKS}, got {check!r}")
+        if not (isinstance(margin_m, int | float) and 0.0 <= margin_m < 0.1):
+            raise ValueError(f"margin_m must be a number in [0, 0.1), got {margin_m!r}")
+        self.margin_m = float(margin_m)
         self.classifier = classifier.eval()
         for p in self.classifier.parameters():
             p.requires_grad_(False)
@@ -51,7 +60,8 @@ class CylinderBackend(BackendDefaults):
         (origin is not used.)"""
         self.cylinders = validate_cylinders(scene)
         self._o = torch.as_tensor(self.cylinders, dtype=torch.float32)
-        self._labeler = CollisionLabeler(cylinder_scene(self.cylinders)) if len(self.cylinders) else None
+        grown = self.cylinders + np.array([0.0, 0.0, self.margin_m, self.margin_m])  # (x, y, h, r) [m]
+        self._labeler = CollisionLabeler(cylinder_scene(grown)) if len(self.cylinders) else None
 
     def p_each(self, z: torch.Tensor) -> torch.Tensor:
         """p(collision) (B, K) of latents z (B, L) with each cylinder; differentiable in z."""

@@ -56,6 +56,7 @@ def test_presets_select_the_parts():
         192,
     )
     assert lspp.checks.backtrace_keep == 0.5 and lspp.plan.timeout_s == 0.0
+    assert lspp.finish is not None and lspp.plan.shortcut and lspp.checks.lazy  # AMP-LS's finishing parts
     lspp_seed = presets.get("lspp_seed", max_steps=100)
     assert (lspp_seed.max_steps, lspp_seed.lr, lspp_seed.tau_col, lspp_seed.search.patience) == (100, 0.03, 0.7, 300)
     with pytest.raises(ValueError, match="unknown AMP-LS preset 'fast'; choose one of default, seed, lspp, lspp_seed"):

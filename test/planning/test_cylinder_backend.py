@@ -55,3 +55,26 @@ def test_make_backend_reports_a_missing_classifier(tmp_path):
 
     with pytest.raises(CheckpointError, match="missing"):
         make_backend("cylinders", cylinder_checkpoint=str(tmp_path / "absent"))
+
+
+def test_the_hard_check_keeps_its_margin_from_the_cylinders(backend):
+    """A cylinder whose side lies within 5 mm of the arm is refused with the default 1 cm margin, not without one;
+    the classifier still reads the given cylinders."""
+    from latent_planner_ros.data.cylinders import cylinder_scene
+    from latent_planner_ros.data.labels import CollisionLabeler
+
+    q = Q_READY[None]
+    gap = None
+    for x in np.linspace(0.2, 0.9, 141):  # the nearest free spot in front of the arm along x, 5 mm steps
+        cyl = np.array([[x, 0.0, 0.9, 0.05]])
+        if not CollisionLabeler(cylinder_scene(cyl)).label(q).any():
+            gap = cyl
+            break
+    assert gap is not None and gap[0, 0] > 0.2  # free, and 5 mm farther out than one that touches the arm
+    backend.set_scene(gap)
+    assert backend.check(q).all() and torch.equal(backend._o, torch.as_tensor(gap, dtype=torch.float32))
+    exact = CylinderBackend(backend.classifier, margin_m=0.0)
+    exact.set_scene(gap)
+    assert not exact.check(q).any()
+    with pytest.raises(ValueError, match="margin_m"):
+        CylinderBackend(backend.classifier, margin_m=-0.01)

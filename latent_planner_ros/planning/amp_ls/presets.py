@@ -8,9 +8,10 @@
 - `lspp_seed`: the seed's LSPP (chapter 6, Algorithm 1 and Table 6.2): position-only goals around cylinder
   obstacles, one latent trajectory, Adam with alpha_AM = 0.03, T = 300 steps, GECO obstacle target tau_obs = 0.7
   (p = 0.5), no explicit collision check beyond the classifier's (the planner node: lspp_check none), no early stop.
-- `lspp`: LSPP with this project's search: 32 latent seeds with 192 restarts of stalled seeds, half of the free
-  part of a colliding step kept when back-tracing, and exact checks of every interpolated state against the
-  cylinders, the table and the arm (chosen on validation scenarios, `bench lspp --seed 8`; docs/benchmark.md).
+- `lspp`: LSPP with this project's search and finishing: 32 latent seeds with 192 restarts of stalled seeds, half
+  of the free part of a colliding step kept when back-tracing, exact checks of every interpolated state against
+  the cylinders, the table and the arm, checked lazily, and AMP-LS's exact finish, straight first and shortcuts
+  (chosen on validation scenarios, `bench lspp --seed 8`; docs/benchmark.md).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import replace
 
-from latent_planner_ros.planning.amp_ls.config import AmpLsConfig, CheckConfig, PlanConfig, SearchConfig
+from latent_planner_ros.planning.amp_ls.config import AmpLsConfig, CheckConfig, FinishConfig, PlanConfig, SearchConfig
 
 
 def default(**overrides) -> AmpLsConfig:
@@ -58,14 +59,15 @@ def lspp_seed(**overrides) -> AmpLsConfig:
 
 
 def lspp(**overrides) -> AmpLsConfig:
-    """LSPP with multi-seed search, restarts and exact checks of the interpolated states (the default LSPP)."""
+    """LSPP with multi-seed search and restarts, lazy exact checks of the interpolated states, the exact finish,
+    straight first and shortcuts (the default LSPP)."""
     base = AmpLsConfig(
         collision_backend="cylinders",
         use_orientation=False,
         search=SearchConfig(n_seeds=32, restarts=192, plan_lr=0.06),
-        checks=CheckConfig(backtrace_keep=0.5, lazy=False, self_check=True),
-        plan=PlanConfig(timeout_s=0.0, shortcut=False),
-        finish=None,
+        checks=CheckConfig(backtrace_keep=0.5, lazy=True, self_check=True),
+        plan=PlanConfig(timeout_s=0.0, shortcut=True),
+        finish=FinishConfig(),
         guidance=None,
         escape=None,
     )
