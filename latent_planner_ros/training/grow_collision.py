@@ -19,7 +19,7 @@ from latent_planner_ros.models.checkpoint import CheckpointError
 from latent_planner_ros.models.collision_box import grow_box
 from latent_planner_ros.models.collision_io import file_sha256, load_collision_net, save_collision_net
 from latent_planner_ros.models.vae_io import load_vae, shipped_vae_path
-from latent_planner_ros.training.train_collision import validation_sets
+from latent_planner_ros.training.collision_validation import validation_sets
 from latent_planner_ros.training.train_collision_config import TrainCollisionConfig
 from latent_planner_ros.training.train_collision_trainer import box_camera, evaluate_net
 

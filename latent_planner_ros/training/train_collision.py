@@ -37,13 +37,9 @@ from latent_planner_ros.models.collision_net import CollisionNet
 from latent_planner_ros.models.collision_net_config import CollisionNetConfig
 from latent_planner_ros.models.scene_encoder import SceneEncoderConfig
 from latent_planner_ros.models.vae_io import load_vae, shipped_vae_path
+from latent_planner_ros.training.collision_validation import validation_sets
 from latent_planner_ros.training.train_collision_config import TrainCollisionConfig
-from latent_planner_ros.training.train_collision_trainer import CollisionTrainer, EvalSet, box_camera
-
-VAL_SEED = 7
-"""Seed of the validation splits ("val_seen", "val_unseen"), disjoint from training and benchmark splits."""
-VAL_SHARD = 5
-"""Scenes per validation shard (fixed, so runs asking for different numbers of scenes share the cache)."""
+from latent_planner_ros.training.train_collision_trainer import CollisionTrainer, box_camera
 
 
 def parse_args(argv: list[str]) -> tuple[argparse.Namespace, TrainCollisionConfig]:
@@ -104,22 +100,6 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, TrainCollisionConfi
     if args.minutes is None and args.iterations is None:
         args.minutes = 60.0
     return args, config
-
-
-def validation_sets(
-    root: Path, n_scenes: int, camera: CameraConfig, families: tuple[str, str] = ("train", "heldout")
-) -> dict[str, EvalSet]:
-    """Validation scenes of the seen and unseen families (generated on first use under root/val_seen and
-    root/val_unseen for the tabletop families, root/val_<name>_<family> for others)."""
-    out = {}
-    for name, family in zip(("seen", "unseen"), families, strict=True):
-        default = {"seen": "train", "unseen": "heldout"}[name] == family
-        directory = root / (f"val_{name}" if default else f"val_{name}_{family}")
-        cfg = DatasetConfig(family=family, scenes_per_shard=VAL_SHARD)
-        generate_dataset(directory, n_scenes, split=f"val_{name}", seed=VAL_SEED, config=cfg)
-        data = CollisionData.load(directory, limit=-(-n_scenes // VAL_SHARD)).first(n_scenes)
-        out[name] = EvalSet(data, seed=VAL_SEED, camera=camera)
-    return out
 
 
 def initial_network(args: argparse.Namespace):
