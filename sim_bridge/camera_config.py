@@ -14,8 +14,8 @@ import numpy as np
 from latent_planner_ros.data.camera import CameraIntrinsics
 from latent_planner_ros.data.camera import look_at as look_at_pose
 from latent_planner_ros.data.cloud_ops import REACH_CROP_MAX, REACH_CROP_MIN
+from latent_planner_ros.params.config import ConfigError, check_int, check_number, check_vector
 from sim_bridge.camera_frame import mujoco_from_optical
-from sim_bridge.params import ConfigError, check_int, check_number, check_vector
 
 Vec3 = tuple[float, float, float]
 

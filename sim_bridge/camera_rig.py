@@ -26,8 +26,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
+from latent_planner_ros.params.config import ConfigError, from_params, to_params
 from sim_bridge.camera_config import CameraConfig
-from sim_bridge.params import ConfigError, from_params, to_params
 from sim_bridge.scenario import Scenario
 from sim_bridge.sim_config import SimConfig
 

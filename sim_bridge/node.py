@@ -43,6 +43,9 @@ from std_msgs.msg import Bool, Float64
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
 
+from latent_planner_ros.params.config import ConfigError, from_params
+from latent_planner_ros.params.ros import ConfigParams
+from latent_planner_ros.params.specs import param_specs
 from latent_planner_ros.robot.limits import JOINT_NAMES
 from msg_adapters import (
     AdapterError,
@@ -55,10 +58,7 @@ from msg_adapters import (
 from sim_bridge.camera_config import CameraConfig
 from sim_bridge.camera_rig import DEFAULT_CAMERA, camera_from_params
 from sim_bridge.mjcf import DEPTH_CAMERA, OVERVIEW_CAMERA
-from sim_bridge.param_specs import param_specs
-from sim_bridge.params import ConfigError, from_params
 from sim_bridge.render import Recorder, Snapshotter
-from sim_bridge.ros_params import ConfigParams
 from sim_bridge.runner import Runner, Tick
 from sim_bridge.scenario import Scenario, ScenarioError
 from sim_bridge.scenario_files import load_scenario, parse_overrides

@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
+from latent_planner_ros.params.config import ConfigError, from_params
 from sim_bridge.camera_config import CameraConfig
-from sim_bridge.params import ConfigError, from_params
 
 SHAPES: dict[str, tuple[str, ...]] = {
     "box": ("half_extents",),

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from latent_planner_ros.params.config import ConfigError, check_int, check_number, check_vector
 from latent_planner_ros.robot.limits import Q_READY, within_limits
 from sim_bridge.camera_config import CameraConfig
-from sim_bridge.params import ConfigError, check_int, check_number, check_vector
 from sim_bridge.scenario import CAMERA_NAME
 
 Vec7 = tuple[float, float, float, float, float, float, float]

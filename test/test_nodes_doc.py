@@ -20,8 +20,8 @@ from pathlib import Path
 import pytest
 import yaml
 
+from latent_planner_ros.params.config import from_params, to_params
 from latent_planner_ros.registry import NODES
-from sim_bridge.params import from_params, to_params
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "nodes.md"
@@ -77,7 +77,7 @@ def declared_params(node: str) -> tuple[dict[str, object], type | None]:
     """({name: default} the node declares, the config dataclass they come from or None)."""
     tree = _tree(node)
     params, config = {}, None
-    found = re.findall(r"ConfigParams\(self, (\w+)", ast.unparse(tree))  # sim_bridge/ros_params.py
+    found = re.findall(r"ConfigParams\(self, (\w+)", ast.unparse(tree))  # latent_planner_ros/params/ros.py
     if found:
         config = getattr(importlib.import_module(_module(node)), found[0])
         params.update(to_params(config()))

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from latent_planner_ros.params.config import ConfigError
 from latent_planner_ros.perception.frames import Frames, Transform, parse_extrinsics
-from sim_bridge.params import ConfigError
 
 FRAMES_READ_ONLY = ("frames.joint_prefix", "frames.base_offset", "frames.extrinsics")
 """The frames are fixed at start-up: subscriptions, held goals and the robot description depend on them."""

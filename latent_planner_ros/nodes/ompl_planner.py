@@ -15,7 +15,7 @@ trajectory once on joint_trajectory (stamp 0 = on receipt: a JointTrajectoryCont
 Turning `execute` on claims the arm on execution_owner; a newer claim of another node (the planner enabled) turns
 it off (nodes/execution_owner.py), so two planners never command at once.
 Parameters: OmplPlannerNodeConfig (config/ompl_planner.yaml), statically typed with descriptors
-(sim_bridge/ros_params.py); a bad value is refused with its dotted name and the reason; `status_rate_hz` changes
+(latent_planner_ros/params/ros.py); a bad value is refused with its dotted name and the reason; `status_rate_hz` changes
 re-create its timer; `cloud_topics` and `frames.*` are read-only.
 
     python -m latent_planner_ros run ompl_planner [--ros-args --params-file config/ompl_planner.yaml]
@@ -46,6 +46,8 @@ from latent_planner_ros.nodes.markers import path_markers
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.ompl_planner_config import RANGES, READ_ONLY, OmplPlannerNodeConfig
 from latent_planner_ros.nodes.qos import CloudSubscription
+from latent_planner_ros.params.config import ConfigError, from_params
+from latent_planner_ros.params.ros import ConfigParams
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from latent_planner_ros.perception.frames import WORLD, path_to_world
 from latent_planner_ros.planning.goal import Goal
@@ -64,8 +66,6 @@ from msg_adapters import (
 )
 from msg_adapters.plan_request import FAILED, REFUSED, SUCCESS
 from msg_adapters.pose import pose_stamped_in_base
-from sim_bridge.params import ConfigError, from_params
-from sim_bridge.ros_params import ConfigParams
 
 OK, WARN = 0, 1
 """Diagnostic levels (as in diagnostic_msgs/DiagnosticStatus)."""

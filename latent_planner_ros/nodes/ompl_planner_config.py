@@ -7,9 +7,9 @@ from dataclasses import dataclass, field
 from latent_planner_ros.nodes.frames_config import FRAMES_READ_ONLY, FramesConfig
 from latent_planner_ros.nodes.param_ranges import PLANNING_RANGES
 from latent_planner_ros.nodes.scene_encoder_config import check_topics
+from latent_planner_ros.params.config import ConfigError, check_number
 from latent_planner_ros.planning.motion_limits import MotionLimits
 from latent_planner_ros.planning.ompl_baseline_config import OmplConfig
-from sim_bridge.params import ConfigError, check_number
 
 
 @dataclass

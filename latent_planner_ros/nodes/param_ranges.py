@@ -1,4 +1,4 @@
-"""Valid ranges of the planning configs' fields, for the parameter descriptors (sim_bridge/param_specs.py).
+"""Valid ranges of the planning configs' fields, for the parameter descriptors (latent_planner_ros/params/specs.py).
 
 One table per config class, in the notation of docs/nodes.md; each range is the one the config's own
 validation enforces (test/nodes/test_param_ranges.py probes both ends of every entry). Fields whose validation

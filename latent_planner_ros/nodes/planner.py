@@ -68,6 +68,8 @@ from latent_planner_ros.nodes.qos import CloudSubscription
 from latent_planner_ros.nodes.rebuild_worker import RebuildWorker
 from latent_planner_ros.nodes.segment_chain import SegmentChain
 from latent_planner_ros.nodes.service_thread import ServiceThread
+from latent_planner_ros.params.config import ConfigError, from_params
+from latent_planner_ros.params.ros import ConfigParams
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from latent_planner_ros.perception.frames import path_to_world
 from latent_planner_ros.perception.scene_input import limit_points
@@ -98,8 +100,6 @@ from msg_adapters import (
 )
 from msg_adapters.plan_request import FAILED, REFUSED, SUCCESS
 from msg_adapters.pose import pose_stamped_in_base
-from sim_bridge.params import ConfigError, from_params
-from sim_bridge.ros_params import ConfigParams
 
 REBUILT_BY = (
     "vae_checkpoint",

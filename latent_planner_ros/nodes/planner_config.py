@@ -14,12 +14,12 @@ from latent_planner_ros.nodes.frames_config import FRAMES_READ_ONLY, FramesConfi
 from latent_planner_ros.nodes.param_ranges import PLANNING_RANGES
 from latent_planner_ros.nodes.planner_tuning import load_tuning
 from latent_planner_ros.nodes.scene_encoder_config import check_topics
+from latent_planner_ros.params.config import ConfigError
 from latent_planner_ros.planning.amp_ls import AmpLsConfig, PlanConfig, SearchConfig, presets
 from latent_planner_ros.planning.amp_ls.config import with_overrides
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig
 from latent_planner_ros.planning.cylinder_backend import CHECKS
 from latent_planner_ros.planning.motion_limits import MotionLimits
-from sim_bridge.params import ConfigError
 
 AMP_LS_PRESETS = ("default", "seed")
 """presets.PRESETS of the AMP-LS planners (LSPP's: LSPP_PRESETS)"""
@@ -248,7 +248,7 @@ RANGES = {
         "grasp_target_radius_m": "[0, 0.2]",
     },
 }
-"""Valid ranges of the planner's parameters (sim_bridge/param_specs.py), as the validation enforces them."""
+"""Valid ranges of the planner's parameters (latent_planner_ros/params/specs.py), as the validation enforces them."""
 
 READ_ONLY = ("cloud_topics", "tuning_file", *FRAMES_READ_ONLY)
 """Parameters fixed at start-up (subscriptions and frames)."""

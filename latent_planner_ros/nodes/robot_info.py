@@ -36,10 +36,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
 from latent_planner_ros.nodes.frames_config import FramesConfig
+from latent_planner_ros.params.ros import ConfigParams
 from latent_planner_ros.robot.limits import Q_READY
 from latent_planner_ros.robot.urdf import panda_urdf
 from msg_adapters import q_to_joint_state
-from sim_bridge.ros_params import ConfigParams
 
 RATE_HZ = 10.0
 """joint_states publishing rate [Hz]."""

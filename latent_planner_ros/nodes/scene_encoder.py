@@ -15,7 +15,7 @@ round). An empty cloud is encoded as an empty scene (status WARN); a malformed c
 refused with the topic and the reason (status ERROR, logged, nothing published; the topic keeps its previous
 cloud). ~/status and /diagnostics (diagnostic_msgs/DiagnosticArray) at status_rate_hz.
 Parameters: SceneEncoderNodeConfig (config/scene_encoder.yaml), statically typed with descriptors
-(sim_bridge/ros_params.py); a bad value is refused with its dotted name and the reason.
+(latent_planner_ros/params/ros.py); a bad value is refused with its dotted name and the reason.
 
     python -m latent_planner_ros run scene_encoder [--ros-args --params-file config/scene_encoder.yaml]
 """
@@ -40,11 +40,11 @@ from latent_planner_ros.models.scene_encoder import SceneEncoder
 from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.qos import CloudSubscription
 from latent_planner_ros.nodes.scene_encoder_config import RANGES, READ_ONLY, SceneEncoderNodeConfig
+from latent_planner_ros.params.config import ConfigError, from_params
+from latent_planner_ros.params.ros import ConfigParams
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused, pose_topic_of
 from latent_planner_ros.perception.scene_input import SceneInputMonitor, prepare_cloud
 from msg_adapters import AdapterError, cloud_to_xyz, embedding_to_cloud, pose_stamped_to_target, status_array
-from sim_bridge.params import ConfigError, from_params
-from sim_bridge.ros_params import ConfigParams
 
 
 def _load_encoder(checkpoint: str) -> SceneEncoder:

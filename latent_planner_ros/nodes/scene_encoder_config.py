@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from latent_planner_ros.nodes.frames_config import FRAMES_READ_ONLY, FramesConfig
-from sim_bridge.params import ConfigError, check_int, check_number
+from latent_planner_ros.params.config import ConfigError, check_int, check_number
 
 
 @dataclass

@@ -14,7 +14,7 @@ import pytest
 import yaml
 
 from latent_planner_ros.nodes.ompl_planner_config import OmplPlannerNodeConfig
-from sim_bridge.params import ConfigError, from_params, to_params
+from latent_planner_ros.params.config import ConfigError, from_params, to_params
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -15,8 +15,8 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 
-from sim_bridge.param_specs import ParamSpec, param_specs
-from sim_bridge.params import to_params
+from latent_planner_ros.params.config import to_params
+from latent_planner_ros.params.specs import ParamSpec, param_specs
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from latent_planner_ros.nodes import ompl_planner_config, planner_config, scene_encoder_config
-from sim_bridge.param_specs import param_specs
-from sim_bridge.params import from_params
+from latent_planner_ros.params.config import from_params
+from latent_planner_ros.params.specs import param_specs
 from sim_bridge.sim_config import SimConfig
 from sim_bridge.sim_ranges import SIM_RANGES, SIM_READ_ONLY
 

@@ -8,8 +8,8 @@ import pytest
 import yaml
 
 from latent_planner_ros.nodes.planner_config import PlannerNodeConfig
+from latent_planner_ros.params.config import ConfigError, from_params, to_params
 from latent_planner_ros.planning.amp_ls import AmpLsConfig
-from sim_bridge.params import ConfigError, from_params, to_params
 
 REPO = Path(__file__).resolve().parents[2]
 

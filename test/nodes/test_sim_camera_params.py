@@ -7,7 +7,7 @@ import pytest
 import rclpy
 from rclpy.parameter import Parameter
 
-from sim_bridge.params import ConfigError
+from latent_planner_ros.params.config import ConfigError
 
 pytestmark = pytest.mark.ros
 

@@ -7,6 +7,7 @@ import pytest
 
 from latent_planner_ros.models.scene_encoder import SceneEncoderConfig
 from latent_planner_ros.nodes.scene_encoder_config import SceneEncoderNodeConfig
+from latent_planner_ros.params.config import ConfigError, from_params, to_params
 from latent_planner_ros.perception.scene_input import (
     ERROR,
     OK,
@@ -16,7 +17,6 @@ from latent_planner_ros.perception.scene_input import (
     limit_points,
     prepare_cloud,
 )
-from sim_bridge.params import ConfigError, from_params, to_params
 
 LOW, HIGH = SceneEncoderConfig().bounds_min, SceneEncoderConfig().bounds_max
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from latent_planner_ros.params.config import ConfigError, from_params
 from latent_planner_ros.perception.cloud_fusion import CloudFusion
 from sim_bridge.camera_config import CameraConfig
 from sim_bridge.camera_rig import camera_from_params, camera_params, camera_rig
-from sim_bridge.params import ConfigError, from_params
 from sim_bridge.runner import Runner
 from sim_bridge.scenario import Scenario, ScenarioError, SceneObject
 from sim_bridge.scenario_files import load_scenario, scenario_from_spec

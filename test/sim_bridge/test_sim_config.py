@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 import yaml
 
+from latent_planner_ros.params.config import ConfigError, from_params, to_params
 from sim_bridge.camera_config import CameraConfig
-from sim_bridge.params import ConfigError, from_params, to_params
 from sim_bridge.sim_config import SimConfig
 
 SIM_YAML = Path(__file__).resolve().parents[2] / "config" / "sim.yaml"

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from functools import cache
 from typing import Any
 
-from sim_bridge.params import to_params
+from latent_planner_ros.params.config import to_params
 
 _NUM = r"-?\d+(?:\.\d+)?(?:e-?\d+)?"
 

@@ -25,8 +25,8 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.parameter import Parameter
 
-from sim_bridge.param_specs import ParamSpec, RangeTable, param_specs
-from sim_bridge.params import ConfigError, from_params
+from latent_planner_ros.params.config import ConfigError, from_params
+from latent_planner_ros.params.specs import ParamSpec, RangeTable, param_specs
 
 TYPES = {
     "bool": Parameter.Type.BOOL,
@@ -88,7 +88,7 @@ class ConfigParams:
     Args:
         node: the rclpy node.
         config_cls: the config dataclass; `defaults` (an instance) gives other defaults than config_cls().
-        ranges: range texts per config class and field (sim_bridge.param_specs.RangeTable).
+        ranges: range texts per config class and field (latent_planner_ros.params.specs.RangeTable).
         read_only: dotted names whose change needs a restart.
     """
 
