@@ -105,10 +105,11 @@ def huge_cloud(ctx: Ctx) -> None:
     used = {s.values.get("cloud_points_used") for s in statuses if s.values.get("cloud_points_in") == str(HUGE_POINTS)}
     ok = ok and all(u is not None and u.isdigit() and 0 < int(u) <= limit for u in used)
     seen_in = sorted({s.values.get("cloud_points_in", "-") for s in statuses})
+    qos = sorted({s.values.get("cloud_qos", "-") for s in statuses})
     ctx.check(
         f"planner status reports {HUGE_POINTS} points in, at most {limit} used",
         ok,
-        f"points in seen: {seen_in}, used with {HUGE_POINTS} in: {sorted(used)}",
+        f"points in seen: {seen_in}, used with {HUGE_POINTS} in: {sorted(used)}, cloud subscription: {qos}",
     )
     if ctx.backend == "learned":
         ctx.check(

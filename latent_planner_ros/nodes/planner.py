@@ -618,6 +618,7 @@ class PlannerNode(Node):
             "cloud_points_in": points_in,
             "cloud_points_used": points_used,
             "cloud_sources": self._cloud_sources,
+            "cloud_qos": ", ".join(s.describe() for s in self.cloud_subscriptions),
             "execution_owner": self.owner.owner,
             "grasp": self.modes.amp_ls.grasp_note if self.modes.grasp is not None else "",
             "grasp_target": self.grasp_target.describe(self.config.grasp_target_radius_m),

@@ -65,6 +65,11 @@ class CloudSubscription:
         self.update()
         self._timer = node.create_timer(GRAPH_PERIOD_S, self.update, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
+    def describe(self) -> str:
+        """The profile subscribed with now: "<topic>: reliable" or "<topic>: best effort"."""
+        reliable = self.profile is not None and self.profile.reliability == ReliabilityPolicy.RELIABLE
+        return f"{self.topic}: {'reliable' if reliable else 'best effort'}"
+
     def update(self) -> None:
         """Subscribe (again) if the topic's publishers call for another profile than the current one."""
         infos = self.node.get_publishers_info_by_topic(self.node.resolve_topic_name(self.topic))

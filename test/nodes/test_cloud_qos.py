@@ -57,6 +57,8 @@ def test_clouds_of_a_best_effort_or_reliable_camera_are_taken(factory, qos):
         while time.monotonic() < end and [s.profile.reliability for s in node.cloud_subscriptions] != [qos.reliability]:
             executor.spin_once(timeout_sec=0.05)
         assert [s.profile.reliability for s in node.cloud_subscriptions] == [qos.reliability]
+        kind = "reliable" if qos.reliability == ReliabilityPolicy.RELIABLE else "best effort"
+        assert node.cloud_subscriptions[0].describe() == f"camera/points: {kind}"
         assert pub.get_subscription_count() == 1
         end = time.monotonic() + 10.0
         while not node.fusion.received and time.monotonic() < end:
