@@ -166,4 +166,9 @@ def test_an_object_wider_than_the_open_hand_is_refused_not_grasped(planners, nam
     for approach in (0.08, 0.0):
         result = plan_grasp(planners[name], _start(), GOAL, cloud, None, approach_m=approach)
         assert not result.success
-        assert result.reason.startswith("grasp refused: the hand would touch the target"), (approach, result.reason)
+        touch = result.reason.startswith("grasp refused: the hand would touch the target")
+        # RRTConnect's pre-grasp is one of several IK solutions, drawn from OMPL's random stream (which the tests
+        # run before in the process move): from some, the straight approach meets the board before the target,
+        # and that refuses the grasp as well
+        blocked = name == "rrtconnect" and approach > 0 and result.reason.startswith("approach blocked")
+        assert touch or blocked, (approach, result.reason)
