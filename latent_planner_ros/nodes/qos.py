@@ -5,14 +5,15 @@ drivers do) or RELIABLE (the sim). A BEST_EFFORT subscription matches both, a RE
 BEST_EFFORT subscription loses a large cloud from a RELIABLE publisher whenever one of its many fragments is lost
 (a 2-million-point cloud, 24 MB, never arrived here). So each node's `CloudSubscription` asks the graph which
 publishers the topic has (as rosbag2's adaptive QoS does) and subscribes RELIABLE when every publisher offers
-RELIABLE, BEST_EFFORT otherwise (before any publisher is seen, too); it looks again every second and re-subscribes
-when that changes. Only the newest cloud is used, so the depth stays small. Other topics keep the default profile
-(RELIABLE, VOLATILE, depth 10), execution_owner and robot_description are TRANSIENT_LOCAL (nodes/execution_owner.py,
-nodes/robot_info.py).
+RELIABLE, BEST_EFFORT otherwise; it looks every second, and adds a subscription with the other profile (each
+message passed on once) if publishers appear that the first one does not serve. Only the newest cloud is used, so
+the depth stays small. Other topics keep the default profile (RELIABLE, VOLATILE, depth 10), execution_owner and
+robot_description are TRANSIENT_LOCAL (nodes/execution_owner.py, nodes/robot_info.py).
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 
 from rclpy.clock import Clock, ClockType
@@ -26,8 +27,7 @@ CLOUD_QOS = QoSProfile(
     reliability=ReliabilityPolicy.BEST_EFFORT,
     durability=DurabilityPolicy.VOLATILE,
 )
-"""Cloud subscriptions with a BEST_EFFORT publisher (or none yet): sensor data (BEST_EFFORT, VOLATILE), the two
-newest kept."""
+"""Cloud subscriptions with a BEST_EFFORT publisher: sensor data (BEST_EFFORT, VOLATILE), the two newest kept."""
 
 RELIABLE_CLOUD_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
@@ -50,7 +50,13 @@ def profile_for(reliabilities: list) -> QoSProfile:
 
 
 class CloudSubscription:
-    """A PointCloud2 subscription to `topic` on `node` whose reliability follows the topic's publishers.
+    """PointCloud2 subscriptions to `topic` on `node` with the reliability of the topic's publishers.
+
+    No subscription exists until a publisher is seen; then one with the profile its publishers call for (see
+    `profile_for`). Should publishers appear later that the subscription does not serve (a BEST_EFFORT camera on a
+    topic subscribed RELIABLE, or the other way round), a second subscription with the other profile is added and
+    each message is passed on once (`Deduplicated`). Subscriptions are never destroyed while the node runs: an
+    rclpy executor can still hold a destroyed subscription among the entities it is about to take from.
 
     Args:
         node: the subscribing node (its executor runs the graph check, on a steady-time timer).
@@ -59,24 +65,58 @@ class CloudSubscription:
     """
 
     def __init__(self, node: Node, topic: str, callback: Callable[[PointCloud2], None]):
-        self.node, self.topic, self.callback = node, topic, callback
-        self.profile: QoSProfile | None = None
-        self.subscription = None
+        self.node, self.topic = node, topic
+        self.deduplicated = Deduplicated(callback)
+        self.profiles: list[QoSProfile] = []
+        self.subscriptions: list = []
         self.update()
         self._timer = node.create_timer(GRAPH_PERIOD_S, self.update, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def describe(self) -> str:
-        """The profile subscribed with now: "<topic>: reliable" or "<topic>: best effort"."""
-        reliable = self.profile is not None and self.profile.reliability == ReliabilityPolicy.RELIABLE
-        return f"{self.topic}: {'reliable' if reliable else 'best effort'}"
+        """How the topic is subscribed: "<topic>: reliable", "<topic>: best effort", both, or no publisher yet."""
+        if not self.profiles:
+            return f"{self.topic}: no publisher yet"
+        kinds = ["reliable" if p.reliability == ReliabilityPolicy.RELIABLE else "best effort" for p in self.profiles]
+        return f"{self.topic}: {' + '.join(kinds)}"
 
     def update(self) -> None:
-        """Subscribe (again) if the topic's publishers call for another profile than the current one."""
+        """Subscribe with the profile the topic's publishers call for, unless a subscription with it exists."""
         infos = self.node.get_publishers_info_by_topic(self.node.resolve_topic_name(self.topic))
-        wanted = profile_for([info.qos_profile.reliability for info in infos])
-        if wanted is self.profile:
+        if not infos:
             return
-        if self.subscription is not None:
-            self.node.destroy_subscription(self.subscription)
-        self.subscription = self.node.create_subscription(PointCloud2, self.topic, self.callback, wanted)
-        self.profile = wanted
+        wanted = profile_for([info.qos_profile.reliability for info in infos])
+        if any(p is wanted for p in self.profiles):
+            return
+        callback = self.deduplicated.reliable if wanted is RELIABLE_CLOUD_QOS else self.deduplicated.best_effort
+        self.subscriptions.append(self.node.create_subscription(PointCloud2, self.topic, callback, wanted))
+        self.profiles.append(wanted)
+
+
+DUPLICATE_WINDOW_S = 0.02
+"""[s] a message with the same stamp and size as the last one passed on, arriving through the other subscription
+within this time, is that message's second copy"""
+
+
+class Deduplicated:
+    """`callback(msg)` once per cloud message received through the two subscriptions of one topic (`reliable`,
+    `best_effort`): the second copy of a message a RELIABLE publisher sent to both is dropped (same stamp and
+    size, through the other subscription, within DUPLICATE_WINDOW_S)."""
+
+    def __init__(self, callback: Callable):
+        self.callback = callback
+        self._last: tuple | None = None  # (key, subscription, monotonic time) of the last message passed on
+
+    def _take(self, which: str, msg) -> None:
+        key = (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.width, msg.height, len(msg.data))
+        now = time.monotonic()
+        last = self._last
+        if last is not None and last[0] == key and last[1] != which and now - last[2] < DUPLICATE_WINDOW_S:
+            return
+        self._last = (key, which, now)
+        self.callback(msg)
+
+    def reliable(self, msg) -> None:
+        self._take("reliable", msg)
+
+    def best_effort(self, msg) -> None:
+        self._take("best_effort", msg)
