@@ -110,7 +110,8 @@ class LearnedBackend(BackendDefaults):
         if origin is not None and origin.ndim == 2:
             origin = origin[inside]
         self.embedding = self.predictor.encode(cloud[inside], origin)
-        self.set_cloud(cloud)
+        if self.geometric is not None:  # set_cloud without counting the share outside the box again
+            self.geometric.set_check_cloud(cloud)
 
     def set_cloud(self, cloud: np.ndarray) -> None:
         """The raw cloud (N, 3) [m] for the geometric part of the hard check (and the choice of `mode`: with an

@@ -103,3 +103,24 @@ def test_encode_refuses_origins_of_the_wrong_shape(views, encoder):
     (cloud, _), _ = views
     with pytest.raises(ValueError, match="eye"):
         encoder.encode(cloud, np.zeros((len(cloud) - 1, 3)))
+
+
+@pytest.mark.parametrize("shuffle", [False, True])
+def test_unique_rows_equals_torch_unique(shuffle):
+    """The run-based distinct rows equal torch.unique(dim=0)'s, in runs (a fused cloud) and in any order."""
+    g = torch.Generator().manual_seed(3)
+    origins = torch.randn(4, 3, generator=g, dtype=torch.float64)
+    counts = [500, 1, 250, 700]
+    key = torch.cat(
+        [torch.cat([torch.full((n, 1), float(k % 2)), origins[k].expand(n, 3)], 1) for k, n in enumerate(counts)]
+    )
+    key = torch.cat([key, key[:30]])  # a view seen again later: a second run of the same row
+    if shuffle:
+        key = key[torch.randperm(len(key), generator=g)]
+    views, group = vis.unique_rows(key)
+    ref_views, ref_group = torch.unique(key, dim=0, return_inverse=True)
+    assert torch.equal(views, ref_views) and torch.equal(group, ref_group)
+    assert torch.equal(views[group], key)
+    for n in (0, 1):
+        empty_views, empty_group = vis.unique_rows(key[:n])
+        assert empty_views.shape == (n, 4) and empty_group.tolist() == [0] * n
