@@ -149,13 +149,14 @@ class GeometricBackend(BackendDefaults):
         # grid_sample wants (N, C, D, H, W) indexed [z, y, x]; our array is [x, y, z]
         self._field = torch.as_tensor(dist.transpose(2, 1, 0)[None, None], dtype=torch.float32)
 
-    def _centres(self, q: torch.Tensor) -> torch.Tensor:
-        frames = self._fk(q.float())
+    def _centres(self, q: torch.Tensor, frames: torch.Tensor | None = None) -> torch.Tensor:
+        frames = self._fk(q.float()) if frames is None else frames.float()
         return self.spheres.centres_world(frames)[:, self._idx]  # (B, S, 3)
 
-    def clearance(self, q: torch.Tensor) -> torch.Tensor:
-        """Distance-field clearance [m] of every moving sphere, (B, S) (negative = penetrating)."""
-        c = self._centres(q)
+    def clearance(self, q: torch.Tensor, frames: torch.Tensor | None = None) -> torch.Tensor:
+        """Distance-field clearance [m] of every moving sphere, (B, S) (negative = penetrating); frames
+        (B, len(LINK_FRAMES), 4, 4) [m]: q's link frames if already computed (TorchFK), else computed here."""
+        c = self._centres(q, frames)
         if self.config.distance == "nearest":
             return self._nearest_clearance(c)
         lo = torch.as_tensor(self._lo, dtype=c.dtype)
@@ -181,10 +182,13 @@ class GeometricBackend(BackendDefaults):
         d = torch.where(torch.as_tensor(near).view(c.shape[:2]), d, torch.full_like(d, far))
         return d - self._radius
 
+    takes_frames = True  # p_collision accepts the link frames of q (AmpLs's FK, shared: one FK per step)
+
     def p_collision(self, q: torch.Tensor, z: torch.Tensor, frames: torch.Tensor | None = None) -> torch.Tensor:
-        """Differentiable p(collision) (B,) of q (B, 7) [rad] from its spheres' clearance (z, frames: not used)."""
+        """Differentiable p(collision) (B,) of q (B, 7) [rad] from its spheres' clearance (z: not used; frames
+        (B, len(LINK_FRAMES), 4, 4) [m]: q's link frames if already computed, differentiable in q)."""
         cfg = self.config
-        logits = (cfg.margin - self.clearance(q)) / cfg.temperature
+        logits = (cfg.margin - self.clearance(q, frames)) / cfg.temperature
         return torch.sigmoid(logits.max(dim=1).values)
 
     def link_p_collision(self, q: np.ndarray) -> dict[str, float]:

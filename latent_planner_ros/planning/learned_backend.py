@@ -174,7 +174,7 @@ class LearnedBackend(BackendDefaults):
         """p(collision) (B,) of decoded configurations q (B, 7) with their latents z (B, L); differentiable.
         frames: the poses (B, len(LINK_FRAMES), 4, 4) [m] of q's link frames if already computed (TorchFK)."""
         if self.mode == "geometric":
-            return self._stand_in().p_collision(q, z).to(z.dtype)
+            return self._stand_in().p_collision(q, z, frames).to(z.dtype)
         poses = None if frames is None else frames[:, self._label_frames].float()
         logits = self.predictor.link_logits_q(self.embedding, q.float(), z.float(), poses)
         return torch.sigmoid(self.predictor.net.combine(logits)).to(z.dtype)

@@ -43,3 +43,23 @@ def test_a_bad_distance_setting_is_refused():
         GeometricBackendConfig(distance="voxels")
     with pytest.raises(ValueError, match="cost_range"):
         GeometricBackendConfig(cost_range=0.0)
+
+
+def test_cost_from_given_link_frames_equals_its_own_fk():
+    """AmpLs passes the link frames of its decoder's FK: the cost and its gradient are those of the backend's FK."""
+    from latent_planner_ros.robot.torch_fk import TorchFK
+
+    rng = np.random.default_rng(1)
+    backend = GeometricBackend()
+    backend.set_scene(rng.uniform([0.2, -0.4, 0.0], [0.8, 0.4, 0.6], size=(400, 3)))
+    assert backend.takes_frames
+    q0 = torch.as_tensor(Q_READY + rng.normal(0.0, 0.3, size=(8, 7)), dtype=torch.float32)
+    q1 = q0.clone().requires_grad_(True)
+    q2 = q0.clone().requires_grad_(True)
+    own = backend.p_collision(q1, torch.zeros(8, 4))
+    given = backend.p_collision(q2, torch.zeros(8, 4), frames=TorchFK()(q2))
+    assert own.max() > 0.5 > own.min()  # some configurations near the points, some not
+    torch.testing.assert_close(given, own)
+    own.sum().backward()
+    given.sum().backward()
+    torch.testing.assert_close(q2.grad, q1.grad)

@@ -137,11 +137,14 @@ class AmpLs:
             return q, pos, ori, self.backend.p_collision(q, z, frames=frames)
         return q, pos, ori, self.backend.p_collision(q, z)
 
+    @torch.no_grad()
     def _errors(self, pos: torch.Tensor, rot6d: torch.Tensor, goal: Goal) -> tuple[np.ndarray, np.ndarray]:
+        """Position [m] and orientation [rad] errors (B,) of TCP positions pos (B, 3) and 6D orientations rot6d
+        (B, 6) to the goal (no autograd: the losses are computed apart)."""
         target_r = torch.as_tensor(goal.rotation, dtype=pos.dtype)
         pos_err = (pos - torch.as_tensor(goal.position, dtype=pos.dtype)).norm(dim=-1)
         ori_err = rotation_angle_between(rot6d_to_matrix(rot6d), target_r.expand(len(pos), 3, 3))
-        return pos_err.detach().numpy().astype(float), ori_err.detach().numpy().astype(float)
+        return pos_err.numpy().astype(float), ori_err.numpy().astype(float)
 
     def reached(self, pos_err: float, ori_err: float, goal: Goal) -> bool:
         """Within the goal's tolerances (position only unless use_orientation)."""
