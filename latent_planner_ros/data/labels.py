@@ -1,7 +1,9 @@
 """Exact collision labels between the Panda's links and a scene's obstacles (coal), per link.
 
-A bounding-sphere test skips link/obstacle pairs that cannot touch; the remaining pairs go to coal.collide
-with the link's collision meshes (and finger boxes) at their world placement.
+Two exact tests skip link/obstacle pairs that cannot touch: the link's enclosing sphere against the obstacle's
+bounding sphere, then against the obstacle's own shape (obstacles.distance_below: a tall thin cylinder's bounding
+sphere is mostly empty); the remaining pairs go to coal.collide with the link's collision meshes (and finger
+boxes) at their world placement.
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ import torch
 
 from latent_planner_ros.data.link_geometry import LinkGeometry, link_geometry
 from latent_planner_ros.data.obstacle_geometry import coal_geometry
-from latent_planner_ros.data.obstacles import bounding_sphere
+from latent_planner_ros.data.obstacles import bounding_sphere, distance_below
 from latent_planner_ros.data.scene import Scene
 from latent_planner_ros.robot.torch_fk import TorchFK
 
@@ -57,6 +59,11 @@ class CollisionLabeler:
         centres = np.einsum("nlij,lj->nli", poses[..., :3, :3], self.links.sphere_centres) + poses[..., :3, 3]
         gap = np.linalg.norm(centres[:, :, None, :] - self.obstacle_centres[None, None], axis=-1)
         maybe = gap < self.links.sphere_radii[None, :, None] + self.obstacle_radii[None, None, :]  # (N, L, O)
+        for o in np.flatnonzero(maybe.any(axis=(0, 1))):  # the obstacle's own shape against the link spheres
+            i, link = np.nonzero(maybe[:, :, o])
+            maybe[i, link, o] = (
+                distance_below(self.scene.obstacles[o], centres[i, link]) < self.links.sphere_radii[link]
+            )
         for i, link, o in zip(*np.nonzero(maybe), strict=True):
             if out[i, link]:
                 continue

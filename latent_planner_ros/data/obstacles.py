@@ -135,6 +135,27 @@ def bounding_sphere(obstacle: Obstacle) -> tuple[np.ndarray, float]:
     return c, obstacle.radius + obstacle.half_length
 
 
+def distance_below(obstacle: Obstacle, points: np.ndarray) -> np.ndarray:
+    """(N,) a lower bound [m] on the distance from each point (N, 3) [m] in `world` to the obstacle (0 inside):
+    exact for the primitives, the distance to the bounding sphere for a mesh. A ball of radius rho about a point
+    cannot touch the obstacle where rho <= the bound."""
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    if isinstance(obstacle, Mesh):
+        c, r = bounding_sphere(obstacle)
+        return np.maximum(np.linalg.norm(p - c, axis=1) - r, 0.0)
+    local = p - np.asarray(obstacle.position, dtype=float)
+    if isinstance(obstacle, Sphere):
+        return np.maximum(np.linalg.norm(local, axis=1) - obstacle.radius, 0.0)
+    local = local @ quat_to_matrix(np.asarray(obstacle.quaternion_xyzw))  # R^T (p - c), one row per point
+    if isinstance(obstacle, Box):
+        return np.linalg.norm(np.maximum(np.abs(local) - np.asarray(obstacle.half_extents), 0.0), axis=1)
+    along = np.abs(local[:, 2]) - obstacle.half_length
+    radial = np.hypot(local[:, 0], local[:, 1])
+    if isinstance(obstacle, Cylinder):
+        return np.hypot(np.maximum(radial - obstacle.radius, 0.0), np.maximum(along, 0.0))
+    return np.maximum(np.hypot(radial, np.maximum(along, 0.0)) - obstacle.radius, 0.0)  # capsule
+
+
 def obstacle_to_dict(obstacle: Obstacle) -> dict:
     """The JSON-ready dict of an obstacle (see the module docstring)."""
     if isinstance(obstacle, Box):

@@ -6,7 +6,7 @@ import numpy as np
 from latent_planner_ros.data.labels import CollisionLabeler, link_poses
 from latent_planner_ros.data.link_geometry import LABEL_LINKS, link_geometry
 from latent_planner_ros.data.obstacle_geometry import coal_geometry
-from latent_planner_ros.data.obstacles import Box
+from latent_planner_ros.data.obstacles import Box, Capsule, Cylinder, Mesh, Sphere, distance_below
 from latent_planner_ros.data.queries import QuerySamplerConfig, sample_queries
 from latent_planner_ros.data.scene import Scene
 from latent_planner_ros.data.scene_generator import generate_scene
@@ -91,3 +91,48 @@ def test_contact_points_lie_where_the_arm_meets_the_obstacle():
     touching, free = labeler.contact_points(np.stack([Q_READY, far]))
     assert len(touching) > 0 and free.shape == (0, 3)
     assert np.all(np.abs(touching - hand) <= 0.05 + 0.02)  # in the box (coal's contact lies in the overlap)
+
+
+def _shapes():
+    tilt = (0.3, 0.2, 0.1, 0.927)  # a rotation about a skew axis (normalised by the shapes)
+    norm = float(np.linalg.norm(tilt))
+    tilt = tuple(v / norm for v in tilt)
+    mesh_vertices = np.array([[0.3, -0.3, 0.2], [0.5, -0.3, 0.2], [0.4, -0.1, 0.2], [0.4, -0.2, 0.45]])
+    return (
+        Box((0.45, 0.25, 0.35), tilt, (0.08, 0.03, 0.2)),
+        Cylinder((0.35, -0.35, 0.4), IDENTITY, 0.04, 0.4),  # tall and thin, as LSPP's
+        Cylinder((0.6, 0.0, 0.6), tilt, 0.05, 0.15),
+        Sphere((0.2, 0.4, 0.7), 0.06),
+        Capsule((0.55, -0.1, 0.25), tilt, 0.03, 0.12),
+        Mesh(mesh_vertices, np.array([[0, 1, 2], [0, 1, 3], [1, 2, 3], [0, 2, 3]])),
+    )
+
+
+def test_distance_below_is_the_exact_distance_of_each_primitive(rng):
+    """obstacles.distance_below against coal's distance from a tiny ball: equal for primitives, below for meshes."""
+    ball = coal.Sphere(1e-6)
+    for shape in _shapes():
+        geom, tf = coal_geometry(shape)
+        centre = np.asarray(getattr(shape, "position", (0.4, -0.2, 0.3)))
+        pts = np.vstack([centre, centre + rng.uniform(-0.3, 0.3, size=(200, 3))])
+        bound = distance_below(shape, pts)
+        ref = np.array([
+            max(coal.distance(ball, coal.Transform3s(np.eye(3), p), geom, tf, coal.DistanceRequest(),
+                              coal.DistanceResult()), 0.0)
+            for p in pts
+        ])  # fmt: skip
+        assert np.all(bound <= ref + 1e-5), type(shape).__name__
+        if not isinstance(shape, Mesh):
+            np.testing.assert_allclose(bound, ref, atol=1e-5, err_msg=type(shape).__name__)
+        assert (bound == 0).any() and (bound > 0.05).any()  # points inside and well outside
+
+
+def test_labels_with_every_primitive_agree_with_coal_distances(rng):
+    """The shape filter only skips pairs that cannot touch: labels equal coal's distances near every primitive."""
+    scene = Scene(_shapes())
+    q = Q_READY + rng.normal(0.0, 0.6, size=(150, 7))
+    labels = CollisionLabeler(scene).label(q)
+    dist = _distance_labels(scene, q)
+    clear = np.abs(dist) > 1e-4
+    np.testing.assert_array_equal(labels[clear], (dist <= 0)[clear])
+    assert labels.sum() > 10 and (~labels).sum() > 10
