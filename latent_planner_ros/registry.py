@@ -27,6 +27,7 @@ BENCH = {
     "fuzz": "latent_planner_ros.bench.fuzz:main",
     "lspp": "latent_planner_ros.bench.lspp:main",
     "planner": "latent_planner_ros.bench.planner:main",
+    "profile": "latent_planner_ros.bench.profile:main",
     "reach": "latent_planner_ros.bench.reach:main",
     "robot": "latent_planner_ros.bench.robot:main",
     "sim": "latent_planner_ros.bench.sim:main",
