@@ -30,7 +30,13 @@ def _dispatch(kind: str, table: dict[str, str], name: str, rest: list[str]) -> i
     if name not in table:
         print(f"unknown {kind} {name!r}; choose one of: {', '.join(sorted(table))}", file=sys.stderr)
         return 2
-    return int(_load(table[name])(rest) or 0)
+    from latent_planner_ros.batch.job import ClusterError
+
+    try:
+        return int(_load(table[name])(rest) or 0)
+    except ClusterError as err:  # --cluster: Ray missing, or the cluster cannot be joined
+        print(f"[latent-planner {name}] {err}", file=sys.stderr)
+        return 2
 
 
 def main(argv: list[str] | None = None) -> int:

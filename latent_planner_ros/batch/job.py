@@ -11,6 +11,11 @@ from dataclasses import dataclass
 from typing import Any
 
 
+class ClusterError(RuntimeError):
+    """--cluster cannot be used: Ray is not installed, or the cluster at the address cannot be joined (the message
+    says what to check). The commands print it as one line (cli.py)."""
+
+
 @dataclass(frozen=True)
 class ExecutorConfig:
     """Which executor runs a batch job, and how wide."""

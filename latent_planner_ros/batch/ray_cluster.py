@@ -16,7 +16,7 @@ import sys
 from collections.abc import Iterator
 from typing import Any
 
-from latent_planner_ros.batch.job import ExecutorConfig, Job, run_task
+from latent_planner_ros.batch.job import ClusterError, ExecutorConfig, Job, run_task
 
 
 def run_pickled(key: str, job: Job, task: bytes) -> bytes:
@@ -28,12 +28,23 @@ def run_pickled(key: str, job: Job, task: bytes) -> bytes:
 INSTALL_HINT = "Ray is not installed: pip install .[cluster] (or: pip install -r requirements-cluster.txt)"
 
 
+class MissingRay(ClusterError, ImportError):
+    """--cluster without the optional extra."""
+
+
+JOIN_HINT = (
+    "is a Ray head running there (`ray start --head --port PORT` prints the address to use, not 127.0.0.1), and "
+    "do this shell and every machine of the cluster export the same RAY_AUTH_MODE and RAY_AUTH_TOKEN "
+    "(docs/cluster.md)?"
+)
+
+
 def import_ray():
-    """The ray module, or ImportError naming the extra to install."""
+    """The ray module, or ClusterError (an ImportError too) naming the extra to install."""
     try:
         import ray
     except ImportError as err:
-        raise ImportError(f"--cluster needs {INSTALL_HINT}") from err
+        raise MissingRay(f"--cluster needs {INSTALL_HINT}") from err
     return ray
 
 
@@ -57,7 +68,10 @@ class RayConnection:
                 cpus = config.workers or os.cpu_count() or 1
                 ray.init(address="local", num_cpus=cpus, include_dashboard=False, configure_logging=False)
             else:
-                ray.init(address=config.cluster, configure_logging=False)
+                try:
+                    ray.init(address=config.cluster, configure_logging=False)
+                except (ConnectionError, ray.exceptions.AuthenticationError) as err:
+                    raise ClusterError(f"could not join the Ray cluster at {config.cluster}: {JOIN_HINT}") from err
         self.remote = ray.remote(run_pickled).options(max_retries=config.retries, num_cpus=1)
         self.lost = _lost_errors(ray)
 
