@@ -74,6 +74,8 @@ def _plan(planner, problem: Problem):
 
 
 def _name(frame) -> str:
+    if frame.function == "[self]":  # pyinstrument's time spent in the parent's own lines
+        return "own lines of the plan loop"
     cls = getattr(frame, "class_name", None)
     return f"{cls}.{frame.function}" if cls else frame.function
 
