@@ -33,7 +33,8 @@ INTERVAL_S = 0.0002
 
 @dataclass
 class Problem:
-    """One plan to make: `run(planner)` plans it and returns the PlanResult."""
+    """One plan to make (`_plan` runs it): problem index (seeds the latent search), start (7,) [rad], goal, and
+    the scene arguments of `plan` after the goal (cloud and origin, or cylinders)."""
 
     index: int
     start: np.ndarray

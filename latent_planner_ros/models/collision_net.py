@@ -18,6 +18,10 @@ from latent_planner_ros.models.scene_encoder import SceneEncoder
 from latent_planner_ros.robot.rotations import matrix_to_rot6d, matrix_to_rot6d_np
 from latent_planner_ros.robot.torch_fk import TorchFK
 
+EINSUM_BLAS_STATES = 4
+"""check_logits: the link points of more configurations than this go through numpy's optimised einsum (BLAS;
+measured faster from 8 states on, slower for one)"""
+
 
 class CollisionNet(nn.Module):
     """Scene encoder + shared per-link classifier (L = len(LABEL_LINKS) links)."""
@@ -91,7 +95,8 @@ class CollisionNet(nn.Module):
         m, n_links = len(poses), self.n_links
         rot, pos = poses[..., :3, :3], poses[..., :3, 3]
         # (M, L, K, 3); numpy's BLAS path is several times faster than its default loop from a few states on
-        pts = np.einsum("mlij,lkj->mlki", rot, self._link_points_np, optimize=m > 4) + pos[:, :, None, :]
+        big = m > EINSUM_BLAS_STATES
+        pts = np.einsum("mlij,lkj->mlki", rot, self._link_points_np, optimize=big) + pos[:, :, None, :]
         norm = (pts - self._centre_np) / self._half_np
         cells = ((norm + 1.0) * np.asarray(enc.grid_shape) - 1.0) / 2.0  # grid_sample's align_corners=False
         feats = trilinear.sample(table, enc.grid_shape, cells.reshape(-1, 3)).reshape(m, n_links, -1)
