@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -116,10 +117,11 @@ class _MotionValidator(ob.MotionValidator):
 
     def __init__(self, si, escape: RrtEscape):
         super().__init__(si)
-        self._escape = escape
+        self._escape = weakref.ref(escape)  # weakly: OMPL's side would make a cycle Python cannot free
 
     def checkMotion(self, s1, s2, *last_valid) -> bool:  # noqa: N802 (OMPL's name)
-        return self._escape._motion_free(s1, s2)
+        escape = self._escape()
+        return False if escape is None else escape._motion_free(s1, s2)
 
 
 class RrtEscape:

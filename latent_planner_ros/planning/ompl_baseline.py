@@ -18,8 +18,11 @@ must not call Python (it would deadlock on the GIL), so PRMstar gets a single go
 
 from __future__ import annotations
 
+import inspect
 import math
 import time
+import weakref
+from collections.abc import Callable
 
 import numpy as np
 from ompl import base as ob
@@ -63,9 +66,26 @@ def densify(q_path: np.ndarray, step_rad: float) -> np.ndarray:
     return np.concatenate(out)
 
 
+def weak_method(method: Callable[..., bool]) -> Callable[..., bool]:
+    """`method` (a bound method) called through a weak reference to its object: False once the object is gone.
+
+    OMPL's C++ objects hold the Python callbacks they are given, and Python's garbage collector cannot see
+    through C++: an owner whose SpaceInformation holds its own bound method is a cycle that is never freed (each
+    planner built and dropped would stay in memory). Callbacks given to OMPL go through this instead.
+    """
+    ref = weakref.WeakMethod(method)
+
+    def call(*args) -> bool:
+        bound = ref()
+        return False if bound is None else bound(*args)
+
+    return call
+
+
 def joint_space(state_valid) -> tuple[ob.RealVectorStateSpace, ob.SpaceInformation]:
     """The Panda's 7-D joint space within its limits and its SpaceInformation, whose states are checked by
-    `state_valid(state) -> bool`; OMPL's log quietened to warnings."""
+    `state_valid(state) -> bool` (a bound method is held weakly, see `weak_method`); OMPL's log quietened to
+    warnings."""
     if ou.getLogLevel().value < ou.LOG_WARN.value:
         ou.setLogLevel(ou.LOG_WARN)
     space = ob.RealVectorStateSpace(7)
@@ -75,7 +95,7 @@ def joint_space(state_valid) -> tuple[ob.RealVectorStateSpace, ob.SpaceInformati
         bounds.setHigh(i, float(Q_MAX[i]))
     space.setBounds(bounds)
     si = ob.SpaceInformation(space)
-    si.setStateValidityChecker(state_valid)
+    si.setStateValidityChecker(weak_method(state_valid) if inspect.ismethod(state_valid) else state_valid)
     return space, si
 
 

@@ -1,5 +1,8 @@
 """The RRT escape of AMP-LS: RRTConnect on the planner's hard check when the latent search stalls."""
 
+import gc
+import weakref
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -70,6 +73,22 @@ def test_rrt_connect_goes_around_an_obstacle_on_the_given_check():
     np.testing.assert_array_equal(v[-1], goal)
     assert all(_box_free(_densify(a, b)) for a, b in zip(v[:-1], v[1:], strict=True))
     assert not _box_free(_densify(start, goal))  # the straight line is blocked
+
+
+def test_a_dropped_escape_is_freed_after_it_planned():
+    """OMPL holds the escape's callbacks; they must not keep it (and the planner whose check it uses) alive: every
+    rebuilt planner would otherwise stay in memory (the planner node's RSS grew about 1 GB per hour of parameter
+    changes)."""
+    escape = RrtEscape(_box_free, _densify)
+    start, goal = Q_READY.copy(), Q_READY.copy()
+    start[0], goal[0] = -0.6, 0.6
+    assert escape.solve([start], [goal], budget_s=2.0).reason == "found"
+    ref = weakref.ref(escape)
+    del escape
+    gc.collect()
+    assert ref() is None
+    again = RrtEscape(_box_free, _densify)  # and the next one plans as before
+    assert again.solve([start], [goal], budget_s=2.0).reason == "found"
 
 
 def test_rrt_connect_without_goals_or_time_returns_at_once():

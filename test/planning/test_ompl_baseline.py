@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import gc
 import math
+import weakref
 
 import coal
 import numpy as np
@@ -150,6 +152,18 @@ def test_rrtconnect_solves_free_space(across_the_wall):
     assert CollisionChecker().feasible(densify(result.q_path, math.radians(0.5))).all()
     assert {"octree_s", "ik_s", "solve_s", "total_s"} <= set(result.timings)
     print(f"free space: {result.planning_time_s:.3f} s {result.timings}")
+
+
+def test_a_dropped_planner_is_freed_after_it_planned(across_the_wall):
+    """OMPL's SpaceInformation holds the state check; it must not keep its planner alive (a cycle through C++
+    that Python cannot collect: every planner built, e.g. per bench problem, would stay in memory)."""
+    start_q, goal = across_the_wall
+    planner = OmplPlanner()
+    assert planner.plan(start_q, goal, np.zeros((0, 3))).success
+    ref = weakref.ref(planner)
+    del planner
+    gc.collect()
+    assert ref() is None
 
 
 def test_rrtconnect_goes_around_a_thin_wall_and_never_touches_it(across_the_wall):
