@@ -93,6 +93,11 @@ def _cm(v) -> str:
     return "n/a" if v is None else f"{100 * v:.1f}"
 
 
+def _sources(shares: dict) -> str:
+    """The planner's command sources of a trial, largest share first: "servo 60%, local 40%"."""
+    return ", ".join(f"{k} {v:.0%}" for k, v in sorted(shares.items(), key=lambda kv: -kv[1])) or "n/a"
+
+
 def markdown(res: dict) -> str:
     lo, hi = res["success_ci95"]
     lines = [
@@ -118,8 +123,8 @@ def markdown(res: dict) -> str:
         f"{_fmt(res.get('command_gap_max_s'), '.2f')} s) |",
         "",
         "| # | seed | speed [m/s] | mode | target half edge [m] | reached [s] | tracked | contacts | "
-        "min dist [cm] | tick p99 [ms] | missed |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "min dist [cm] | tick p99 [ms] | missed | commands from |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for i, t in enumerate(res["per_trial"]):
         d = t["drawn"]
@@ -127,7 +132,7 @@ def markdown(res: dict) -> str:
             f"| {i} | {t['seed']} | {d['speed']:+.3f} | {d['mode']} | {d['target_half_extent']:.3f} | "
             f"{_fmt(t['time_to_reach_s'], '.1f')} | {'yes' if t['tracked'] else 'no'} | {t['collisions']} | "
             f"{_cm(t['min_obstacle_distance_m'])} | "
-            f"{_fmt(t['tick_ms_p99'], '.0f')} | {t['missed_ticks']} |"
+            f"{_fmt(t['tick_ms_p99'], '.0f')} | {t['missed_ticks']} | {_sources(t.get('command_sources', {}))} |"
         )
     return "\n".join(lines) + "\n"
 

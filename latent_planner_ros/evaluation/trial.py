@@ -51,7 +51,8 @@ class TrialLog:
         target_t, target_position, target_quaternion: (M,), (M, 3) [m], (M, 4) xyzw target poses (``target_pose``).
         contact_t, contact: (K,) times and (K,) bool, the arm touched the scene (``sim/in_collision``).
         distance_t, distance: (L,) times and (L,) [m] arm-to-objects clearance (``sim/min_distance``).
-        status_t, status_state, status_message, tick_ms: (S,) times, planner states, status messages and tick
+        status_t, status_state, status_message, status_source, tick_ms: (S,) times, planner states, status
+            messages, command sources ("local", "servo", "plan", ...; "" where the status had none) and tick
             compute times [ms] (NaN where the status had none) from ``planner/status``.
         command_t: (C,) stamps of the planner's ``joint_command`` messages.
         command_period_s: [s] the planner's control period.
@@ -71,6 +72,7 @@ class TrialLog:
     status_t: np.ndarray = field(default_factory=_array)
     status_state: tuple[str, ...] = ()
     status_message: tuple[str, ...] = ()
+    status_source: tuple[str, ...] = ()
     tick_ms: np.ndarray = field(default_factory=_array)
     command_t: np.ndarray = field(default_factory=_array)
     command_period_s: float = 0.1
@@ -221,6 +223,7 @@ def trial_metrics(log: TrialLog, rule: SuccessRule | None = None, track: Trackin
     median_pos_err_after_reach_m, median_ori_err_after_reach_deg, min_obstacle_distance_m, collisions
     (contacts begun), contact_s, tick_ms_p50, tick_ms_p99, tick_ms_max, ticks_reported, commands,
     missed_ticks, command_gap_max_s, first_tick_ms, planner_states (state -> fraction of status messages),
+    command_sources (status command_source -> fraction of the status messages that name one),
     planner_failures (distinct status messages of the "failed" state), duration_s, rule.
     """
     rule = rule or SuccessRule()
@@ -236,6 +239,7 @@ def trial_metrics(log: TrialLog, rule: SuccessRule | None = None, track: Trackin
     contact_dt = float(np.median(np.diff(log.contact_t))) if len(log.contact_t) > 1 else 0.0
     ticks = tick_samples(log.tick_ms)
     states, counts = np.unique(np.asarray(log.status_state, dtype=str), return_counts=True)
+    sources, source_counts = np.unique([s for s in log.status_source if s], return_counts=True)
     return {
         "reached": reached,
         "tracked": bool(held),
@@ -261,6 +265,7 @@ def trial_metrics(log: TrialLog, rule: SuccessRule | None = None, track: Trackin
         "command_gap_max_s": longest_command_gap(log.command_t, log.duration_s),
         "first_tick_ms": _opt(ticks[0]) if len(ticks) else None,
         "planner_states": {str(s): float(c / counts.sum()) for s, c in zip(states, counts, strict=True)},
+        "command_sources": {str(s): float(c / source_counts.sum()) for s, c in zip(sources, source_counts, strict=True)},
         "planner_failures": sorted(
             {m for s, m in zip(log.status_state, log.status_message, strict=False) if s == "failed"}
         ),

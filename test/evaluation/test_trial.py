@@ -172,5 +172,10 @@ def test_an_empty_trial_has_undefined_figures_not_errors():
     m = trial_metrics(TrialLog(duration_s=5.0))
     assert not m["reached"] and not m["success"]
     assert m["time_to_reach_s"] is None and m["min_obstacle_distance_m"] is None and m["tick_ms_p50"] is None
-    assert m["missed_ticks"] == 50
+    assert m["missed_ticks"] == 50 and m["command_sources"] == {}
     assert "NOT reached" in format_summary(m)
+
+
+def test_command_sources_are_the_shares_of_the_statuses_that_name_one():
+    log = TrialLog(duration_s=1.0, status_source=("local", "", "servo", "servo", "plan"))
+    assert trial_metrics(log)["command_sources"] == {"local": 0.25, "plan": 0.25, "servo": 0.5}

@@ -70,3 +70,67 @@ def test_a_servo_segment_the_hard_check_refuses_is_never_commanded(shipped_vae):
     for source, q in zip(sources, states[1:], strict=True):  # a servo command keeps servo_clearance_m (5 cm)
         assert source != "servo" or clearance.least_clearance(q) >= 0.05
     assert panda.fk(states[-1]).translation[1] < start[1] + 0.25  # still on this side of the wall
+
+
+def _cube(centre: np.ndarray, half: float = 0.025, step: float = 0.01) -> np.ndarray:
+    """The surface points (N, 3) [m] of a cube of half edge `half` [m] around centre (3,) [m], `step` apart."""
+    g = np.arange(-half, half + 1e-9, step)
+    x, y, z = np.meshgrid(g, g, g, indexing="ij")
+    pts = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    return centre + pts[np.abs(pts).max(axis=1) >= half - 1e-9]
+
+
+def _track_moving(vae, obstacle_at, ticks: int = 40):
+    """As _track, with a cloud that moves: obstacle_at(t [s], goal position (3,)) -> points (N, 3) [m]. Returns
+    (TCP errors [m], command sources, states (ticks + 1, 7), the clouds per tick)."""
+    planner = AmpLs(vae, GeometricBackend(), AmpLsConfig(collision_backend="geometric"))
+    c = ClosedLoopController(planner, ClosedLoopConfig(servo_radius_m=0.1))  # the default lead: the arm goes ahead
+    panda = load_panda()
+    q = Q_READY.copy()
+    start = panda.fk(q).translation
+    errors, sources, states, clouds = [], [], [q.copy()], []
+    for k in range(ticks):
+        now = 0.1 * k
+        goal = Goal(start + np.array([0.0, SPEED * now, 0.0]), DOWN)
+        cloud = obstacle_at(now, goal.position)
+        c.set_goal(goal, now)
+        c.set_joint_state(q, now)
+        c.set_scene(cloud, now, cloud=cloud)
+        out = c.tick(now)
+        if out.command is not None:
+            q = out.command
+        states.append(q.copy())
+        clouds.append(cloud)
+        errors.append(float(np.linalg.norm(panda.fk(q).translation - goal.position)))
+        sources.append(out.values.get("command_source"))
+    return np.array(errors), sources, np.array(states), clouds
+
+
+def test_the_servo_tracks_a_target_that_travels_under_the_hand(shipped_vae):
+    """A conveyor's target: a cube 10 cm under the goal moves with it, the arm chasing the goal led by its velocity:
+    the cube is no obstacle coming at the arm, so the servo goes on and keeps the hand clear of it."""
+    below = np.array([0.0, 0.0, -0.125])  # the cube's top face 10 cm under the TCP goal
+    errors, sources, states, clouds = _track_moving(shipped_vae, lambda t, goal: _cube(goal + below))
+    assert sources.count("servo") > 25, sources
+    assert np.median(errors[20:]) < 0.04, errors  # the lead: 0.3 s x 10 cm/s = 3 cm ahead of the goal
+    watch = Evader(0.05)
+    for q, cloud in zip(states[1:], clouds, strict=True):
+        watch.add_cloud(cloud, 0.0)
+        assert watch.least_clearance(q) >= 0.05  # the hand never comes near the cube
+
+
+def test_the_servo_yields_to_an_obstacle_coming_at_the_arm(shipped_vae):
+    """A block comes at the hand along the goal's way at 15 cm/s: no servo command lets it within
+    servo_clearance_m (5 cm) of the commanded arm by the next tick."""
+    start = load_panda().fk(Q_READY).translation
+
+    def block(t, goal):
+        return _cube(start + np.array([0.0, 0.35 - 0.15 * t, 0.0]), half=0.04)
+
+    errors, sources, states, clouds = _track_moving(shipped_vae, block, ticks=25)
+    assert "servo" in sources and set(sources) - {"servo"}  # servoing while the block is far, not when it is near
+    watch = Evader(0.05)
+    for k, (source, q) in enumerate(zip(sources, states[1:], strict=True)):
+        if source == "servo" and k + 1 < len(clouds):
+            watch.add_cloud(clouds[k + 1], 0.0)
+            assert watch.least_clearance(q) >= 0.05, k

@@ -160,7 +160,9 @@ class TrialMonitor(Node):
                 self.live.state, self.live.tick_ms = state, tick_ms
                 self.live.source = values.get("command_source", "")
                 if self._series is not None:
-                    self._series.status.append((_seconds(msg.header.stamp), state, tick_ms, status.message))
+                    self._series.status.append(
+                        (_seconds(msg.header.stamp), state, tick_ms, status.message, self.live.source)
+                    )
 
     # -- recording (any thread) ----------------------------------------------------------------------
     def begin(self) -> float:
@@ -204,6 +206,7 @@ class TrialMonitor(Node):
             status_t=np.array([r[0] for r in status], dtype=float) - t0,
             status_state=tuple(r[1] for r in status),
             status_message=tuple(r[3] for r in status),
+            status_source=tuple(r[4] for r in status),
             tick_ms=np.array([r[2] for r in status], dtype=float),
             command_t=commands,
             command_period_s=command_period_s,
