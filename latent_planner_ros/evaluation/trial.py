@@ -239,7 +239,7 @@ def trial_metrics(log: TrialLog, rule: SuccessRule | None = None, track: Trackin
     contact_dt = float(np.median(np.diff(log.contact_t))) if len(log.contact_t) > 1 else 0.0
     ticks = tick_samples(log.tick_ms)
     states, counts = np.unique(np.asarray(log.status_state, dtype=str), return_counts=True)
-    sources, source_counts = np.unique([s for s in log.status_source if s], return_counts=True)
+    sources, n_source = np.unique([s for s in log.status_source if s], return_counts=True)
     return {
         "reached": reached,
         "tracked": bool(held),
@@ -265,7 +265,7 @@ def trial_metrics(log: TrialLog, rule: SuccessRule | None = None, track: Trackin
         "command_gap_max_s": longest_command_gap(log.command_t, log.duration_s),
         "first_tick_ms": _opt(ticks[0]) if len(ticks) else None,
         "planner_states": {str(s): float(c / counts.sum()) for s, c in zip(states, counts, strict=True)},
-        "command_sources": {str(s): float(c / source_counts.sum()) for s, c in zip(sources, source_counts, strict=True)},
+        "command_sources": {str(s): float(c / n_source.sum()) for s, c in zip(sources, n_source, strict=True)},
         "planner_failures": sorted(
             {m for s, m in zip(log.status_state, log.status_message, strict=False) if s == "failed"}
         ),
