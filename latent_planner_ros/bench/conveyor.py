@@ -197,6 +197,14 @@ def main(argv: list[str]) -> int:
         indices = trial_indices(args.only, args.trials)
     except ValueError as err:
         p.error(str(err))
+    from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
+    from latent_planner_ros.params.specs import param_specs
+
+    known = param_specs(PlannerNodeConfig(), RANGES, READ_ONLY)
+    names = [item.partition("=")[0].strip() for item in args.planner_set if "=" in item and ":=" not in item]
+    unknown = [name for name in names if name and name not in known]  # (malformed items: refused further on)
+    if unknown:  # the node would drop them silently (with a warning in its log): a run that is not what was asked
+        p.error(f"--planner-set: not a planner parameter: {', '.join(unknown)} (docs/nodes.md lists them)")
 
     from latent_planner_ros.evaluation.conveyor_suite import ConveyorSuite, StartupError, SuiteFailed, plan_suite
     from latent_planner_ros.evaluation.trial import SuccessRule, tick_samples, tracking, trial_metrics

@@ -16,13 +16,16 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.logging import get_logger
 from rclpy.node import Node
 
+from latent_planner_ros.params.ros import undeclared_overrides
+
 
 def run_node(name: str, factory: Callable[[], Node], startup_errors: tuple[type[BaseException], ...]) -> int:
     """Create the node with `factory` and spin it until shutdown; the process exit code.
 
     An error in `startup_errors` while creating the node (a bad parameter, a missing checkpoint) is logged as
-    "cannot start: ..." and gives exit code 2; Ctrl-C or an external shutdown gives 0. Any other error is
-    raised, except one racing the shutdown (a callback publishing after SIGTERM).
+    "cannot start: ..." and gives exit code 2; start-up parameters the node does not have are logged as ignored.
+    Ctrl-C or an external shutdown gives 0. Any other error is raised, except one racing the shutdown (a callback
+    publishing after SIGTERM).
     """
     faulthandler.register(signal.SIGUSR1, all_threads=True)
     rclpy.init(args=sys.argv)
@@ -33,6 +36,12 @@ def run_node(name: str, factory: Callable[[], Node], startup_errors: tuple[type[
         except startup_errors as err:
             get_logger(name).error(f"cannot start: {err}")
             return 2
+        unknown = undeclared_overrides(node)
+        if unknown:
+            node.get_logger().warning(
+                f"ignored: start-up parameters this node does not have: {', '.join(unknown)} "
+                "(docs/nodes.md lists every node's parameters)"
+            )
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -81,6 +81,21 @@ def type_refusal(spec: ParamSpec, value: Any) -> str:
     return f"{spec.name}: expected {spec.type}, got {_TYPE_WORDS.get(given, 'no value')} {value!r}"
 
 
+ROS_OWN_PARAMETERS = ("use_sim_time", "start_type_description_service")
+"""parameters rclpy declares on every node (and `qos_overrides.*`)"""
+
+
+def undeclared_overrides(node) -> list[str]:
+    """Names given at start-up (a parameters file, `-p NAME:=VALUE`) that `node` never declared: rclpy drops them
+    silently, so a misspelt or unknown parameter would look applied. Call once the node declared everything."""
+    overrides = getattr(node, "_parameter_overrides", {})
+    return sorted(
+        name
+        for name in overrides
+        if not node.has_parameter(name) and name not in ROS_OWN_PARAMETERS and not name.startswith("qos_overrides.")
+    )
+
+
 class ConfigParams:
     """The parameters of one config dataclass on `node`, declared with descriptors; `config` holds the start-up
     values (validated: ConfigError naming the parameter).

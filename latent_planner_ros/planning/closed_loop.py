@@ -70,8 +70,9 @@ class ClosedLoopConfig:
     evade_margin_m: float = 0.05
     """[m] when the arm's least sphere clearance to the observed cloud is below this, the cloud approaches the
     arm faster than evade_approach_mps and the tick's command would not gain clearance (a hold: no step accepted,
-    no goal or a failure, with a cloud at most stale_scene_s old; or a step that does not move away), the arm
-    retreats from the nearest points instead (planning/evasion.py); 0 = never"""
+    no goal or a failure, with a cloud at most stale_scene_s old; or a step that gains less clearance than the
+    cloud's approach takes in a control period), the arm retreats from the nearest points instead
+    (planning/evasion.py); 0 = never"""
     evade_approach_mps: float = 0.02
     """[m/s] approach speed of the observed cloud (its clearance to the held arm, over about 0.3 s) that counts
     as an obstacle moving towards the arm"""
@@ -356,10 +357,12 @@ class ClosedLoopController:
                 return outcome
         if self.grasp is not None:
             return self._grasp_hold(now, hold)
+        servo_note = ""
         if cfg.servo_radius_m > 0 and float(np.linalg.norm(self.goal_velocity())) > STILL_GOAL_MPS:
             outcome = self._servo(now)
-            if outcome is not None:
+            if isinstance(outcome, TickOutcome):
                 return outcome
+            servo_note = outcome
         t0 = time.perf_counter()
         chased = self.chased_goal()
         assert chased is not None  # self.goal is set
@@ -383,6 +386,8 @@ class ClosedLoopController:
             "command_source": "local",
             **out.losses,
         }
+        if servo_note:
+            values["servo_note"] = servo_note
         if self.follower is not None:
             values["plan_note"] = self.follower.note
         moved = self._best_goal is not None and np.linalg.norm(self.goal.position - self._best_goal) > cfg.progress_m
@@ -454,19 +459,21 @@ class ClosedLoopController:
         reason = "reached" if reached else f"following the background plan ({f.waypoint})"
         return TickOutcome(target, "reached" if reached else "tracking", reason, OK, values)
 
-    def _servo(self, now: float) -> TickOutcome | None:
+    def _servo(self, now: float) -> TickOutcome | str:
         """The tick's command by IK towards the led goal when the TCP is within servo_radius_m of it (see
-        ClosedLoopConfig.servo_radius_m), or None (a latent step instead)."""
+        ClosedLoopConfig.servo_radius_m), or why not (a latent step instead; the status's `servo_note`)."""
         cfg, goal, q, own_goal = self.config, self.chased_goal(), self._q, self.goal
         assert goal is not None and q is not None and own_goal is not None  # tick servos only with both
         t0 = time.perf_counter()
         _, pos_err, _ = self.planner.arm_at_goal(q, goal)
         if pos_err > cfg.servo_radius_m:
-            return None
+            return f"{pos_err * 100:.0f} cm from the goal"
         sol = solve_ik(self.planner.panda, goal, q, SERVO_IK)
         delta = sol.q - q
-        if float(np.abs(delta).max()) > cfg.servo_max_rad or sol.pos_err >= pos_err:
-            return None
+        if float(np.abs(delta).max()) > cfg.servo_max_rad:
+            return f"IK asks {float(np.abs(delta).max()):.2f} rad of a joint"
+        if sol.pos_err >= pos_err:
+            return "IK makes no progress"
         limit = self.planner.config.speed_scale * V_MAX / cfg.rate_hz
         scale = min(1.0, float(np.min(limit / np.maximum(np.abs(delta), 1e-12))))
         command = np.clip(q + scale * delta, Q_MIN, Q_MAX)
@@ -474,13 +481,14 @@ class ClosedLoopController:
             self.planner.backend.set_scene(self._scene)
             self._checked_scene = self._scene
         if self._evader is not None:
-            if self._evader.least_clearance(command) < cfg.servo_clearance_m:
-                return None
+            least = self._evader.least_clearance(command)
+            if least < cfg.servo_clearance_m:
+                return f"{least * 100:.1f} cm clearance"
             clearance, speed = self._evader.threat(q)  # an obstacle coming at the arm: the latent steps decide
             if speed >= cfg.evade_approach_mps and clearance < 2.0 * cfg.servo_clearance_m:
-                return None
+                return f"an obstacle approaches at {speed * 100:.0f} cm/s, {clearance * 100:.1f} cm away"
         if not self.planner.segment_free(q, command):
-            return None
+            return "the hard check refuses the segment"
         self.planner.reset()  # the next latent step re-encodes wherever the servo left the arm
         reached, arm_err, ori_err = self.planner.arm_at_goal(q, own_goal)
         values = {
@@ -515,8 +523,8 @@ class ClosedLoopController:
         self, now: float, values: dict[str, Any], fresh_cloud: bool = False, command: np.ndarray | None = None
     ) -> TickOutcome | None:
         """A retreat from an observed obstacle approaching the arm, or None (see evade_margin_m). command (7,)
-        [rad]: the planner's step, kept when it gains clearance itself; with fresh_cloud, only when the newest cloud
-        is at most stale_scene_s old (holds without planning)."""
+        [rad]: the planner's step, kept when it gains clearance faster than the obstacle approaches; with
+        fresh_cloud, only when the newest cloud is at most stale_scene_s old (holds without planning)."""
         cfg = self.config
         if cfg.evade_margin_m <= 0 or self._evader is None:
             return None
@@ -528,7 +536,9 @@ class ClosedLoopController:
         values.update(clearance_m=clearance, approach_mps=speed)
         if clearance >= cfg.evade_margin_m or speed < cfg.evade_approach_mps:
             return None
-        if command is not None and self._evader.least_clearance(command) > clearance:
+        # the step is kept when it gains more clearance than the obstacle takes in a control period (the points it
+        # nears move on too: a step that merely edges away is overrun by a fast obstacle)
+        if command is not None and self._evader.least_clearance(command) - speed / cfg.rate_hz > clearance:
             return None
         q_new = self._evader.retreat(q, self.planner.config.speed_scale * V_MAX / cfg.rate_hz)
         if q_new is None:

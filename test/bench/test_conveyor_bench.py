@@ -99,3 +99,6 @@ def test_bad_only_or_planner_set_stop_before_any_process_starts(tmp_path, capsys
     assert "distinct" in capsys.readouterr().err
     assert main(["--out", str(tmp_path), "--backend", "geometric", "--planner-set", "goal_lead_s"]) == 2
     assert "NAME=VALUE" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # a name the planner does not have would be dropped by the node: refused here
+        main(["--out", str(tmp_path), "--planner-set", "closed_loop.no_such=1.0"])
+    assert "not a planner parameter: closed_loop.no_such" in capsys.readouterr().err

@@ -10,6 +10,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
 from latent_planner_ros.nodes.frames_config import FramesConfig
+from latent_planner_ros.params.ros import undeclared_overrides
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from msg_adapters import AdapterError, target_to_pose_stamped, xyz_to_cloud
 from msg_adapters.pose import pose_stamped_in_base
@@ -19,7 +20,9 @@ pytestmark = pytest.mark.ros
 
 @pytest.fixture
 def ompl_node():
-    rclpy.init(args=["--ros-args", "-p", "status_rate_hz:=20", "-p", "frames.joint_prefix:=fr3_"])
+    rclpy.init(
+        args=["--ros-args", "-p", "status_rate_hz:=20", "-p", "frames.joint_prefix:=fr3_", "-p", "ompl.no_such:=1"]
+    )
     from latent_planner_ros.nodes.ompl_planner import OmplPlannerNode
 
     node = OmplPlannerNode()
@@ -43,6 +46,12 @@ def test_descriptors_carry_type_description_range_and_read_only(ompl_node):
     assert "[m]" in ik.description and ik.additional_constraints == "valid range > 0"
     assert ompl_node.describe_parameter("cloud_topics").read_only
     assert ompl_node.describe_parameter("frames.base_offset").read_only
+
+
+def test_start_up_parameters_the_node_does_not_have_are_named(ompl_node):
+    """rclpy drops them silently; run_node logs them as ignored (a misspelt name would look applied)."""
+    assert undeclared_overrides(ompl_node) == ["ompl.no_such"]
+    assert not ompl_node.has_parameter("ompl.no_such")
 
 
 def test_an_integer_yaml_value_for_a_double_stays_a_double(ompl_node):

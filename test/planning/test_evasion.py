@@ -120,3 +120,17 @@ def test_an_accepted_step_is_replaced_by_a_retreat_only_when_it_does_not_gain_cl
     assert out.state == "evading" and load_panda().fk(out.command).translation[1] < TCP[1]
     out = _run(ClosedLoopController(_StepPlanner(-towards), ClosedLoopConfig()), approaching)
     assert out.state == "tracking" and np.allclose(out.command, Q_READY - towards)
+
+
+def test_a_step_that_edges_away_slower_than_the_obstacle_comes_is_replaced_by_a_retreat():
+    """The wall comes 1 cm per 0.1 s tick: a step that gains 0.8 cm is overrun (a conveyor's obstacle at 14 cm/s
+    touched an arm whose local steps each edged away a little); one that gains 1.6 cm is kept."""
+    approaching = [0.21, 0.2, 0.19, 0.18, 0.17]
+    away = -np.array([0.05, 0, 0, 0, 0, 0, 0])  # turns the hand away from the wall at +y
+    wall = _evader_with([(0.0, _wall(0.17))])
+    gain = wall.least_clearance(Q_READY + 0.5 * away) - wall.least_clearance(Q_READY)
+    assert 0.0 < gain < 0.01
+    out = _run(ClosedLoopController(_StepPlanner(0.5 * away), ClosedLoopConfig()), approaching)
+    assert out.state == "evading" and wall.least_clearance(out.command) > wall.least_clearance(Q_READY + 0.5 * away)
+    out = _run(ClosedLoopController(_StepPlanner(away), ClosedLoopConfig()), approaching)
+    assert out.state == "tracking" and np.allclose(out.command, Q_READY + away)
