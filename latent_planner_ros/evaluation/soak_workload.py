@@ -43,7 +43,7 @@ SCENARIOS = ("tabletop", "conveyor")
 GOOD_PARAMS = {
     "closed_loop.goal_lead_s": (0.1, 0.5),
     "closed_loop.tick_budget_ms": (15.0, 30.0),
-    "closed_loop.servo_radius_m": (0.05, 0.15),
+    "closed_loop.servo_radius_m": (0.2, 0.5),
     "closed_loop.evade_margin_m": (0.03, 0.07),
     "closed_loop.no_progress_s": (6.0, 10.0),
 }

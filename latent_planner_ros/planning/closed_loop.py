@@ -86,12 +86,13 @@ class ClosedLoopConfig:
     """[s] without a path to follow, local steps without progress for this long ask for a new background plan"""
     follow_goal_tol_m: float = 0.02
     """[m] a path is followed only while the goal is within this of the goal it was planned for"""
-    servo_radius_m: float = 0.1
+    servo_radius_m: float = 0.4
     """[m] with the arm's TCP within this of a moving goal (led by goal_lead_s), a tick servos by IK instead of a
     latent step: a few damped-least-squares iterations from the measured state to the led goal, commanded when the
     straight segment to it passes the hard check and changes no joint by more than servo_max_rad (else the latent
     step as usual); the latent optimisation trails a fast goal by several ticks, IK does not. 0 = off (beyond the
-    seed; on the fast conveyor, 30 trials to 15 cm/s: 24/30 with it, 17/30 without, docs/benchmark.md)"""
+    seed; on the fast conveyor, 30 trials to 15 cm/s: 28/30 at 0.4 m, 24/30 at 0.1 m, 17/30 without: far from
+    a fast goal the latent steps only keep pace with it, docs/benchmark.md)"""
     servo_max_rad: float = 0.5
     """[rad] the largest joint change an IK servo target may ask for (a larger one is a different IK branch)"""
     servo_clearance_m: float = 0.05
