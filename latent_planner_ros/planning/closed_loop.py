@@ -360,10 +360,10 @@ class ClosedLoopController:
             return self._grasp_hold(now, hold)
         servo_note = ""
         if cfg.servo_radius_m > 0 and float(np.linalg.norm(self.goal_velocity())) > STILL_GOAL_MPS:
-            outcome = self._servo(now)
-            if isinstance(outcome, TickOutcome):
-                return outcome
-            servo_note = outcome
+            servo = self._servo(now)
+            if isinstance(servo, TickOutcome):
+                return servo
+            servo_note = servo
         t0 = time.perf_counter()
         chased = self.chased_goal()
         assert chased is not None  # self.goal is set
