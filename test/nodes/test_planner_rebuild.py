@@ -171,7 +171,7 @@ def test_a_rebuild_is_swapped_in_at_a_tick_with_the_state_carried_over(planner):
     assert node.modes.grasp == grasp and node.modes.amp_ls.goal is not None  # the grasp goal, still a grasp
     np.testing.assert_allclose(node.modes.goal.position, [0.5, 0.1, 0.3])
     assert node.modes.active.fresh_joint_state(node._last_q[1]) is not None  # the joint state carried over
-    # the replaced planners are freed (each kept one grew the node by about 15 MB per parameter change)
+    # the replaced planners are freed (each kept one grew the node by about 17 MB per parameter change)
     gone = [weakref.ref(p) for p in (old_planner, old_stepping, old_planner.backend, old_stepping.backend)]
     old_planner = old_stepping = None
     end = time.monotonic() + 5.0
