@@ -32,6 +32,7 @@ from sim_bridge.camera_config import CameraConfig
 from sim_bridge.camera_frame import mujoco_from_optical
 from sim_bridge.camera_rig import RigCamera, camera_rig
 from sim_bridge.command import CommandResult, JointCommand
+from sim_bridge.heap import release_freed_memory
 from sim_bridge.mjcf import DEPTH_CAMERA, OBJECT_PREFIX, TCP_SITE, build_scene, extra_camera_name
 from sim_bridge.scenario import Scenario
 from sim_bridge.sim_config import SimConfig
@@ -124,6 +125,7 @@ class Sim:
             rng = np.random.default_rng(seed if seed is None or i == 0 else [seed, i])
             mjcf_name = DEPTH_CAMERA if i == 0 else extra_camera_name(cam.name)
             self._cameras[cam.name] = DepthCamera(self.model, self._robot_geoms, cam.config, rng, mjcf_name)
+        release_freed_memory()  # the old scene's buffers: otherwise the RSS wanders with the scenes held
 
     def close(self) -> None:
         """Release the cameras' OpenGL contexts."""
