@@ -16,6 +16,7 @@ NODES = {
 TRAIN = {
     "collision": "latent_planner_ros.training.train_collision:main",
     "distil": "latent_planner_ros.training.distil_collision:main",
+    "local-collision": "latent_planner_ros.training.train_local_collision:main",
     "lspp": "latent_planner_ros.training.train_lspp:main",
     "vae": "latent_planner_ros.training.train_vae:main",
 }

@@ -23,6 +23,7 @@ import torch
 
 from latent_planner_ros.batch.executor import Executor, add_executor_args, executor_config
 from latent_planner_ros.bench.collision_families import extra_families, family_figures, family_markdown, score_families
+from latent_planner_ros.bench.collision_models import load_predictor, predictor_box
 from latent_planner_ros.bench.collision_scores import (
     BENCH_SEED,
     GAP_EDGES_M,
@@ -42,7 +43,6 @@ from latent_planner_ros.models.collision_metrics import (
     precision_recall,
     roc_curve,
 )
-from latent_planner_ros.models.collision_predictor import CollisionPredictor
 from latent_planner_ros.planning.learned_backend import CHECK_THRESHOLD
 
 
@@ -200,13 +200,12 @@ def main(argv: list[str]) -> int:
         return 2
     torch.set_num_threads(args.threads)
     try:
-        pred = CollisionPredictor.load(args.checkpoint, args.vae)
+        pred, meta = load_predictor(args.checkpoint, args.vae)
     except CheckpointError as e:
         print(f"bench collision: {e}")
         return 2
-    from latent_planner_ros.models.collision_io import load_collision_net, shipped_collision_path
+    from latent_planner_ros.models.collision_io import shipped_collision_path
 
-    _, meta = load_collision_net(args.checkpoint)
     with Executor(executor_config(args)) as ex:
         data = {
             "seen": bench_data(args.data_dir, "train", "seen", args.scenes, args.queries, ex),
@@ -216,12 +215,12 @@ def main(argv: list[str]) -> int:
             bench_data(args.data_dir, family, family, args.family_scenes, args.queries, ex)
     scores = {name: evaluate_family(pred, d, seed=BENCH_SEED + k) for k, (name, d) in enumerate(data.items())}
     results: dict = {}
-    box = pred.net.config.encoder
+    box = predictor_box(pred)
     for name in ("seen", "unseen"):
         results.update(summarise(name, data[name], scores[name], args.threshold))
-        outside = outside_box(data[name], box.bounds_min, box.bounds_max)
+        outside = outside_box(data[name], *box)
         results.update(box_split(name, data[name], scores[name], outside, args.threshold))
-    if pred.net.config.encoder.visibility:  # the same held-out clouds, their camera origins withheld
+    if pred.uses_origin:  # the same held-out clouds, their camera origins withheld
         blind = evaluate_family(pred, data["unseen"], seed=BENCH_SEED + 1, with_origin=False)
         near, y = data["unseen"].near, data["unseen"].labels
         prec, rec = precision_recall(blind["p"][near], y[near], args.threshold)

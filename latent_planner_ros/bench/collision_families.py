@@ -6,6 +6,7 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
+from latent_planner_ros.bench.collision_models import Predictor
 from latent_planner_ros.bench.collision_scores import (
     BENCH_SEED,
     WORKCELL_VIEWS,
@@ -15,7 +16,6 @@ from latent_planner_ros.bench.collision_scores import (
     outside_box,
     summarise,
 )
-from latent_planner_ros.models.collision_predictor import CollisionPredictor
 
 
 def extra_families(spec: str) -> list[str]:
@@ -33,7 +33,7 @@ def extra_families(spec: str) -> list[str]:
     return list(dict.fromkeys(out))
 
 
-def score_families(pred: CollisionPredictor, families: list[str], args, box) -> dict:
+def score_families(pred: Predictor, families: list[str], args, box: tuple[np.ndarray, np.ndarray]) -> dict:
     """Per family: near-object AUROC, precision and recall at the threshold, the geometric reference's AUROC,
     and the share of its near collisions outside the network's box, on args.family_scenes fresh scenes."""
     out = {}
@@ -42,7 +42,7 @@ def score_families(pred: CollisionPredictor, families: list[str], args, box) -> 
         tabletop = family in ("train", "heldout")
         r = evaluate_family(pred, d, seed=BENCH_SEED + 10 + k, views=1 if tabletop else WORKCELL_VIEWS)
         s = summarise(family, d, r, args.threshold)
-        outside = outside_box(d, box.bounds_min, box.bounds_max)
+        outside = outside_box(d, *box)
         s.update(box_split(family, d, r, outside, args.threshold))
         keys = ("auroc_near", "precision_near", "recall_near", "geometric_auroc_near", "outside_box_share_near",
                 "recall_near_hidden", "positive_rate_near", "scenes", "queries")  # fmt: skip

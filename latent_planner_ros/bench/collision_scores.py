@@ -15,13 +15,13 @@ import torch
 from scipy.spatial import cKDTree
 from tqdm import tqdm
 
+from latent_planner_ros.bench.collision_models import Predictor, combine, predictor_box
 from latent_planner_ros.data.camera import CameraConfig, planning_crop
 from latent_planner_ros.data.dataset import CollisionData, DatasetConfig, generate_dataset
 from latent_planner_ros.data.labels import CollisionLabeler, link_poses
 from latent_planner_ros.data.link_geometry import LABEL_LINKS, link_geometry
-from latent_planner_ros.data.obstacle_geometry import triangle_mesh
 from latent_planner_ros.data.queries import QuerySamplerConfig
-from latent_planner_ros.data.render import scene_cloud, scene_view
+from latent_planner_ros.data.render import fused_view, scene_cloud, scene_view
 from latent_planner_ros.models.collision_metrics import (
     auroc,
     calibration_bins,
@@ -29,7 +29,7 @@ from latent_planner_ros.models.collision_metrics import (
     recall_at_precision,
     recall_by_bins,
 )
-from latent_planner_ros.models.collision_predictor import CollisionPredictor
+from latent_planner_ros.models.local_predictor import LocalPredictor
 from latent_planner_ros.perception.scene_input import inside_bounds
 
 BENCH_SEED = 1000
@@ -65,19 +65,7 @@ WORKCELL_VIEWS = 3
 """cameras fused per workcell scene (furniture is seen into from several sides, as the workcell sets do)"""
 
 
-def fused_view(scene, rng: np.random.Generator, camera: CameraConfig, views: int) -> tuple[np.ndarray, np.ndarray]:
-    """`views` random views of a scene fused: the cloud (N, 3) float32 [m] and the camera origin of each point
-    (N, 3); the views look at the centre of the scene's obstacles from all round (the default ranges)."""
-    corners = np.concatenate([triangle_mesh(o)[0] for o in scene.obstacles]) if scene.obstacles else np.zeros((1, 3))
-    aimed = replace(camera, target=tuple(float(v) for v in (corners.min(0) + corners.max(0)) / 2))
-    clouds, eyes = zip(*(scene_view(scene, rng, aimed) for _ in range(views)), strict=True)
-    origins = np.concatenate([np.repeat(e[None], len(c), 0) for c, e in zip(clouds, eyes, strict=True)])
-    return np.concatenate(clouds).astype(np.float32), origins.reshape(-1, 3).astype(np.float32)
-
-
-def evaluate_family(
-    pred: CollisionPredictor, data: CollisionData, seed: int, with_origin: bool = True, views: int = 1
-) -> dict:
+def evaluate_family(pred: Predictor, data: CollisionData, seed: int, with_origin: bool = True, views: int = 1) -> dict:
     """Scores of the predictor and the geometric reference on every labelled configuration of `data`; the
     predictor is given each cloud's camera origin (one per point for several views) unless with_origin is False.
 
@@ -87,12 +75,12 @@ def evaluate_family(
     rng = np.random.default_rng(seed)
     low, high = planning_crop()
     camera = replace(CameraConfig(), crop_min=low, crop_max=high)
-    box = pred.net.config.encoder
+    box_min, box_max = predictor_box(pred)
     p, link_p, geo, enc_ms, n_points = [], [], [], [], []
     scenes = tqdm(data.scenes, desc="bench collision: scoring scenes", unit="scene", leave=False)
     for i, scene in enumerate(scenes):
         cloud, eye = scene_view(scene, rng, camera) if views <= 1 else fused_view(scene, rng, camera, views)
-        keep = inside_bounds(cloud, box.bounds_min, box.bounds_max)
+        keep = inside_bounds(cloud, box_min, box_max)
         inside = cloud[keep]
         eye = eye[keep] if eye.ndim == 2 else eye
         t0 = time.perf_counter()
@@ -103,7 +91,7 @@ def evaluate_family(
         with torch.no_grad():
             qt = torch.as_tensor(q)
             logits = pred.link_logits_q(emb, qt, None)
-            p.append(torch.sigmoid(pred.net.combine(logits)).numpy())
+            p.append(torch.sigmoid(combine(pred, logits)).numpy())
             link_p.append(torch.sigmoid(logits).numpy())
         geo.append(geometric_score(q, cKDTree(cloud)) if len(cloud) else np.full(len(q), -np.inf))
     return {
@@ -115,19 +103,32 @@ def evaluate_family(
     }
 
 
-def query_times(pred: CollisionPredictor, data: CollisionData, repeats: int = 200) -> tuple[float, float]:
-    """Median time [ms] of one p_collision(embedding, z) at batch 1, and of one call at batch 1000."""
-    emb = pred.encode(scene_cloud(data.scenes[0], np.random.default_rng(0), CameraConfig()))
-    z = torch.randn(1000, pred.vae.config.latent, generator=torch.Generator().manual_seed(0))
+def query_times(pred: Predictor, data: CollisionData, repeats: int = 200) -> tuple[float, float]:
+    """Median time [ms] of one query at batch 1, and of one call at batch 1000: p_collision(embedding, z) of the
+    grid network (through the VAE decoder), p_collision_q(scene, q) of the local one (the labelled q of `data`)."""
+    cloud = scene_cloud(data.scenes[0], np.random.default_rng(0), CameraConfig())
+    if isinstance(pred, LocalPredictor):
+        scene = pred.encode(cloud)
+        x = torch.as_tensor(data.q[:1000])
+
+        def call(rows):
+            return pred.p_collision_q(scene, rows)
+    else:
+        emb = pred.encode(cloud)
+        x = torch.randn(1000, pred.vae.config.latent, generator=torch.Generator().manual_seed(0))
+
+        def call(rows):
+            return pred.p_collision(emb, rows)
+
     one, many = [], []
     with torch.no_grad():
         for k in range(repeats):
             t0 = time.perf_counter()
-            pred.p_collision(emb, z[k % 1000 : k % 1000 + 1])
+            call(x[k % len(x) : k % len(x) + 1])
             one.append(time.perf_counter() - t0)
         for _ in range(5):
             t0 = time.perf_counter()
-            pred.p_collision(emb, z)
+            call(x)
             many.append(time.perf_counter() - t0)
     return float(np.median(one) * 1000), float(np.median(many) * 1000)
 

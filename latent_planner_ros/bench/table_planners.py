@@ -47,6 +47,10 @@ AMP_LS_VARIANTS: dict[str, AmpLsVariant] = {
         "beyond the seed (c): geometric backend (arm spheres vs cloud) instead of the learned predictor",
         backend="geometric",
     ),
+    "amp_ls_local": AmpLsVariant(
+        "the local collision predictor (the cloud points next to each link) instead of the grid network",
+        backend="local",
+    ),
     "amp_ls_no_self_check": AmpLsVariant(
         "beyond the seed off: no exact self/table check of interpolated steps", {"checks.self_check": False}
     ),

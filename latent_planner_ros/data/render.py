@@ -3,6 +3,8 @@ data/camera.py (optical frame)."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from latent_planner_ros.data.camera import CameraConfig, CameraIntrinsics, sample_camera_pose, unproject
@@ -97,3 +99,16 @@ def voxel_downsample(points: np.ndarray, size: float) -> np.ndarray:
     if len(points) == 0 or size <= 0.0:
         return points
     return float64_voxel_downsample(points, size).astype(np.float32)
+
+
+def fused_view(
+    scene: Scene, rng: np.random.Generator, camera: CameraConfig, views: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """`views` random views of a scene fused: the cloud (N, 3) float32 [m] and the camera origin of each point
+    (N, 3); the views look at the centre of the scene's obstacles from all round (the default ranges)."""
+    corners = np.concatenate([triangle_mesh(o)[0] for o in scene.obstacles]) if scene.obstacles else np.zeros((1, 3))
+    centre = (corners.min(0) + corners.max(0)) / 2
+    aimed = replace(camera, target=(float(centre[0]), float(centre[1]), float(centre[2])))
+    clouds, eyes = zip(*(scene_view(scene, rng, aimed) for _ in range(views)), strict=True)
+    origins = np.concatenate([np.repeat(e[None], len(c), 0) for c, e in zip(clouds, eyes, strict=True)])
+    return np.concatenate(clouds).astype(np.float32), origins.reshape(-1, 3).astype(np.float32)

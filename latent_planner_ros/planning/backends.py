@@ -7,10 +7,11 @@ from latent_planner_ros.planning.geometric_backend import GeometricBackend
 
 
 def make_backend(name: str, collision_checkpoint: str = "", cylinder_checkpoint: str = "") -> CollisionBackend:
-    """ "learned" (scene embeddings + collision predictor), "geometric" (spheres vs cloud), "cylinders" (LSPP's
-    obstacle classifier on state-based cylinders, exact hard check) or "none".
+    """ "learned" (scene embeddings + collision predictor), "geometric" (spheres vs cloud), "local" (the local
+    collision predictor: the points next to each link), "cylinders" (LSPP's obstacle classifier on state-based
+    cylinders, exact hard check) or "none".
 
-    Raises CheckpointError (learned, missing or bad checkpoint) or ValueError (unknown name).
+    Raises CheckpointError (learned or local, missing or bad checkpoint) or ValueError (unknown name).
     """
     if name == "geometric":
         return GeometricBackend()
@@ -20,6 +21,10 @@ def make_backend(name: str, collision_checkpoint: str = "", cylinder_checkpoint:
         from latent_planner_ros.planning.learned_backend import LearnedBackend
 
         return LearnedBackend.load(collision_checkpoint or None)
+    if name == "local":
+        from latent_planner_ros.planning.local_backend import LocalBackend
+
+        return LocalBackend.load()
     if name == "cylinders":
         from latent_planner_ros.planning.cylinder_backend import CylinderBackend
 

@@ -96,3 +96,28 @@ def test_workcell_scenes_are_scored_on_fused_views_of_their_furniture():
     scene = generate_family_scene(np.random.default_rng(0), "bin_heldout")
     cloud, origins = fused_view(scene, np.random.default_rng(1), CameraConfig(), 3)
     assert cloud.shape == origins.shape and len(np.unique(origins, axis=0)) == 3
+
+
+@pytest.mark.slow
+def test_bench_collision_scores_a_local_predictor_without_a_box(tmp_path, capsys):
+    import torch
+
+    from latent_planner_ros.models.checkpoint import save_checkpoint
+    from latent_planner_ros.models.local_collision import LocalCollisionConfig, LocalCollisionNet
+    from latent_planner_ros.models.local_collision_io import KIND
+
+    torch.manual_seed(0)
+    config = LocalCollisionConfig(k=4, hidden=16)
+    stem = tmp_path / "local"
+    meta = {"kind": KIND, "architecture": config.to_dict()}
+    save_checkpoint(stem, dict(LocalCollisionNet(config).state_dict()), meta)
+    out = tmp_path / "out"
+    argv = ["--out", str(out), "--scenes", "2", "--queries", "20", "--data-dir", str(tmp_path / "data"),
+            "--checkpoint", str(stem), "--families", "cage_heldout", "--family-scenes", "2"]  # fmt: skip
+    assert bench_collision(argv) == 0
+    data = json.loads((out / "collision.json").read_text())
+    assert 0.0 <= data["auroc_near_unseen"] <= 1.0 and data["checkpoint"] == str(stem)
+    assert data["families"]["cage_heldout"]["outside_box_share_near"] == 0.0  # it is given the whole reach
+    assert 0.0 <= data["auroc_near_unseen_no_origin"] <= 1.0  # it reads camera origins: scored without them too
+    assert bench_collision([*argv[:2], "--checkpoint", str(stem), "--vae", str(stem)]) == 2
+    assert "reads no VAE" in capsys.readouterr().out

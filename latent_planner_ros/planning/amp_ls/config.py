@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field, fields, replace
 
-BACKENDS = ("learned", "geometric", "cylinders", "none")
+BACKENDS = ("learned", "geometric", "local", "cylinders", "none")
 
 
 def _problems(obj, positive=(), non_negative=(), at_least_one=(), counts=()) -> list[str]:
@@ -219,8 +219,8 @@ class AmpLsConfig:
     use_orientation: bool = True
     """orientation loss and tolerance (False: position only)"""
     collision_backend: str = "learned"
-    """"learned" (scene embedding + collision predictor), "geometric" (spheres vs cloud), "cylinders" (LSPP: the
-    obstacle classifier on state-based cylinders) or "none\""""
+    """"learned" (scene embedding + collision predictor), "geometric" (spheres vs cloud), "local" (the local
+    collision predictor), "cylinders" (LSPP: the obstacle classifier on state-based cylinders) or "none\""""
     col_threshold: float = 0.2
     """gamma_col: a decoded state with p(collision) above this is not accepted"""
     interp_steps: int = 15
