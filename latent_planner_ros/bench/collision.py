@@ -158,15 +158,16 @@ def markdown(results: dict, ckpt: str, threshold: float) -> str:
     if "auroc_near_unseen_no_origin" in results:
         lines += [
             "",
-            "Without the camera origin (the network's visibility channels off, unseen family, near queries):"
+            "Without the camera origin (the grid network's visibility channels, the local network's directions to the"
+            " camera off; unseen family, near queries):"
             f" AUROC {results['auroc_near_unseen_no_origin']:.3f}, precision"
             f" {results['precision_near_unseen_no_origin']:.3f}, recall {results['recall_near_unseen_no_origin']:.3f}.",
         ]
     lines += [
         "",
-        f"Encoding one cloud: median {results['encode_ms_median']:.1f} ms"
+        f"Encoding one cloud (the local network: indexing it): median {results['encode_ms_median']:.1f} ms"
         f" ({results['cloud_points_median_seen']:.0f} points);"
-        f" one query (batch 1, through the VAE decoder): median {results['query_ms_median']:.2f} ms;"
+        f" one query (batch 1; the grid network through the VAE decoder): median {results['query_ms_median']:.2f} ms;"
         f" 1,000 queries: {results['query_1000_ms_median']:.1f} ms (torch threads: {results['torch_threads']}).",
         "",
     ]
