@@ -60,6 +60,7 @@ class SoakLog:
         commands: stamps of the planner's joint_command messages.
         excused: (start, end) intervals during which the planner must not command (joint-state pauses).
         contacts: onset times of sim/in_collision.
+        doing: (t, command_source, p_collision, message) of every planner status: what the loop was doing.
         violations: (t, kind, detail) of commands that broke the safety invariant.
         logs: (t, node, level, text) of /rosout messages at WARN or above.
         goals: the goals sent, in order.
@@ -78,6 +79,7 @@ class SoakLog:
     commands: list = field(default_factory=list)
     excused: list = field(default_factory=list)
     contacts: list = field(default_factory=list)
+    doing: list = field(default_factory=list)
     violations: list = field(default_factory=list)
     logs: list = field(default_factory=list)
     goals: list = field(default_factory=list)
@@ -87,6 +89,27 @@ class SoakLog:
     events: dict = field(default_factory=dict)
     command_period_s: float = 0.1
     safety: dict = field(default_factory=dict)
+
+
+def contact_context(contacts: list, doing: list, before_s: float = 1.0) -> list[dict]:
+    """For each contact onset time [s]: what the planner's statuses in the before_s seconds up to it said (the
+    command sources seen, the highest p(collision) of a command, the last message)."""
+    out = []
+    for t in contacts:
+        recent = [d for d in doing if t - before_s <= d[0] <= t]
+        p = []
+        for d in recent:
+            try:
+                p.append(float(d[2]))
+            except (TypeError, ValueError):
+                pass
+        out.append({
+            "t": round(t, 2),
+            "command_sources": sorted({d[1] for d in recent if d[1]}),
+            "p_collision_max": round(max(p), 4) if p else None,
+            "message": recent[-1][3] if recent else "",
+        })  # fmt: skip
+    return out
 
 
 # ---------------------------------------------------------------------------------------------- per minute
@@ -341,6 +364,7 @@ def summarise(log: SoakLog) -> dict:
         "crashes": log.crashes,
         "violations_first": [f"{k}: {detail}" for _, k, detail in log.violations[:10]],
         "contact_times_s": [round(t, 2) for t in log.contacts[:50]],
+        "contacts_context": contact_context(log.contacts[:50], log.doing),
         "events": log.events,
         "safety": log.safety,
     }

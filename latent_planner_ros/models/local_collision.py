@@ -24,6 +24,7 @@ Finding the points is not differentiable (a KD-tree, `gather_points`); the featu
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -112,19 +113,28 @@ class Neighbourhoods:
         frames: np.ndarray,
         anchors: np.ndarray,
         config: LocalCollisionConfig,
+        near: Callable[[np.ndarray, float], np.ndarray] | None = None,
     ) -> Neighbourhoods:
         """Gather the k nearest points of cloud (P, 3) [m] (indexed by `tree`, None for an empty cloud) within
         radius_m of each anchor (L, A, 3) [m, link frame] at link poses frames (B, L, 4, 4) [m]; eyes (P, 3) [m]
-        per point, or None."""
+        per point, or None. near(centres (M, 3), radius) -> (M,) bool, if given, is a cheaper test of "a point
+        within radius of the centre" (it may say True for more): the tree is asked about those anchors only."""
         b, n_links = frames.shape[:2]
         n = config.anchors * config.k
         if tree is None or not len(cloud):
             z = torch.zeros(b, n_links, n, 3)
             return cls(z, torch.full_like(z, float("nan")), torch.zeros(b, n_links, n, dtype=torch.bool))
         world = np.einsum("blij,laj->blai", frames[..., :3, :3], anchors) + frames[:, :, None, :3, 3]
-        d, idx = tree.query(world.reshape(-1, 3), k=config.k, distance_upper_bound=config.radius_m)
-        valid = np.isfinite(np.asarray(d).reshape(b, n_links, n))
-        idx = np.where(valid, np.asarray(idx).reshape(b, n_links, n), 0)
+        flat = world.reshape(-1, 3)
+        d = np.full((len(flat), config.k), np.inf)
+        idx = np.zeros((len(flat), config.k), dtype=np.intp)
+        ask = np.arange(len(flat)) if near is None else np.flatnonzero(near(flat, config.radius_m * (1 + 1e-6)))
+        if len(ask):
+            found_d, found_i = tree.query(flat[ask], k=config.k, distance_upper_bound=config.radius_m)
+            d[ask] = np.asarray(found_d).reshape(len(ask), config.k)
+            idx[ask] = np.asarray(found_i).reshape(len(ask), config.k)
+        valid = np.isfinite(d.reshape(b, n_links, n))
+        idx = np.where(valid, idx.reshape(b, n_links, n), 0)
         pts = cloud[idx]
         eye = eyes[idx] if eyes is not None else np.full(pts.shape, np.nan, dtype=np.float32)
         return cls(

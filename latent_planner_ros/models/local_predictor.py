@@ -8,6 +8,7 @@ p = pred.p_collision_q(scene, q)             # (B,) = sigmoid of the largest lin
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,11 +26,13 @@ from latent_planner_ros.robot.torch_fk import TorchFK
 @dataclass
 class LocalScene:
     """A cloud (N, 3) float32 [m] in `world`, each point's camera origin (N, 3) float32 [m] (None: unknown),
-    and its KD-tree (None for an empty cloud)."""
+    its KD-tree (None for an empty cloud), and optionally a cheaper test near(centres (M, 3) [m], radius [m]) ->
+    (M,) bool of "a point within radius" (True allowed for more) that spares the tree far anchors."""
 
     cloud: np.ndarray
     eyes: np.ndarray | None
     tree: cKDTree | None
+    near: Callable[[np.ndarray, float], np.ndarray] | None = None
 
 
 class LocalPredictor:
@@ -67,7 +70,9 @@ class LocalPredictor:
 
     def neighbourhoods(self, scene: LocalScene, frames: np.ndarray) -> Neighbourhoods:
         """The neighbourhoods of the links at poses frames (B, L, 4, 4) [m] (LABEL_LINKS order)."""
-        return Neighbourhoods.of(scene.tree, scene.cloud, scene.eyes, frames, self._anchors, self.net.config)
+        return Neighbourhoods.of(
+            scene.tree, scene.cloud, scene.eyes, frames, self._anchors, self.net.config, scene.near
+        )
 
     def link_logits_frames(self, scene: LocalScene, frames: torch.Tensor) -> torch.Tensor:
         """Per-link logits (B, L) at the LABEL_LINKS poses frames (B, L, 4, 4) [m]; differentiable in frames."""

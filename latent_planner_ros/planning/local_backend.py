@@ -16,7 +16,7 @@ import torch
 
 from latent_planner_ros.data.link_geometry import LABEL_LINKS
 from latent_planner_ros.models.local_predictor import LocalPredictor
-from latent_planner_ros.planning.ball_query import finite_rows
+from latent_planner_ros.planning.ball_query import BallQuery, finite_rows
 from latent_planner_ros.planning.collision_backend import BackendDefaults
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.robot.panda import LINK_FRAMES
@@ -72,6 +72,9 @@ class LocalBackend(BackendDefaults):
                 raise ValueError(f"origin: expected shape (3,) or ({len(cloud)}, 3), got {o.shape}")
         cloud = cloud[keep]
         self.scene = self.predictor.encode(cloud, eyes)
+        if len(cloud):  # the occupancy prefilter spares the KD-tree the anchors with no point near (same answers)
+            balls = BallQuery(cloud)
+            self.scene.near = lambda centres, radius: balls.occupied(centres, np.asarray(radius))
         self.geometric.set_check_cloud(cloud)
 
     def p_collision(self, q: torch.Tensor, z: torch.Tensor, frames: torch.Tensor | None = None) -> torch.Tensor:

@@ -134,3 +134,20 @@ def test_a_checkpoint_round_trip_gives_the_same_logits_and_the_wrong_kind_is_ref
         load_local_collision(tmp_path / "other")
     with pytest.raises(CheckpointError):
         load_local_collision(tmp_path / "missing")
+
+
+def test_the_occupancy_prefilter_gives_the_same_neighbourhoods(net):
+    from latent_planner_ros.planning.ball_query import BallQuery
+
+    rng = np.random.default_rng(3)
+    q = Q_READY + rng.uniform(-0.6, 0.6, (40, 7))
+    frames = _frames(q)
+    cloud = np.concatenate([_wall(0.45), rng.uniform([-0.5, -0.5, 0], [0.8, 0.5, 1.0], (300, 3))]).astype(np.float32)
+    eyes = np.tile(np.array([1.5, 0.0, 0.8], np.float32), (len(cloud), 1))
+    tree = cKDTree(cloud)
+    plain = Neighbourhoods.of(tree, cloud, eyes, frames, net.anchors_np(), CONFIG)
+    fast = Neighbourhoods.of(tree, cloud, eyes, frames, net.anchors_np(), CONFIG, BallQuery(cloud).occupied)
+    assert plain.valid.any() and not plain.valid.all()
+    assert torch.equal(plain.valid, fast.valid)
+    torch.testing.assert_close(plain.points[plain.valid], fast.points[fast.valid])
+    torch.testing.assert_close(plain.eyes[plain.valid], fast.eyes[fast.valid])

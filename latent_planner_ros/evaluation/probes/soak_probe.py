@@ -147,6 +147,9 @@ class SoakProbe(Node):
                 t = _seconds(msg.header.stamp) - self.t0
                 state = values.get("state", s.message.split(":")[0])
                 self.record.status.append((t, state, s.message, values.get("last_error", ""), tick_ms))
+                self.record.doing.append(
+                    (t, values.get("command_source", ""), values.get("p_collision", ""), s.message[:160])
+                )
 
     def _on_plan_result(self, msg: DiagnosticStatus) -> None:
         values = {kv.key: kv.value for kv in msg.values}
