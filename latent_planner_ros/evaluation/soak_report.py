@@ -433,6 +433,12 @@ def markdown(res: dict) -> str:
             f"| {m['minute']} | {m['ticks']} | {_f(m['p50'])} | {_f(m['p99'])} | {_f(m['max'])} | "
             f"{m['missed_periods']} | {m['contacts']} | {m['violations']} |"
         )
+    if res.get("contacts_context"):
+        lines += ["", "## Contacts: what the planner was doing in the second before each", ""]
+        lines += ["| t [s] | command sources | highest p_collision | last status |", "| --- | --- | --- | --- |"]
+        for c in res["contacts_context"][:20]:
+            p = "-" if c["p_collision_max"] is None else f"{c['p_collision_max']:.3f}"
+            lines.append(f"| {c['t']:.1f} | {', '.join(c['command_sources']) or '-'} | {p} | {c['message'][:80]} |")
     lines += ["", "## Logged at error level", ""]
     if not res["error_logs"]:
         lines.append("Nothing.")

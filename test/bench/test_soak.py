@@ -207,6 +207,23 @@ def test_summary_holds_the_required_keys_and_the_worst_node_and_minute():
     assert "| planner |" in text and "tick failed" in text
 
 
+def test_each_contact_says_what_the_planner_was_doing_just_before():
+    log = SoakLog(minutes=1.0, duration_s=60.0)
+    log.contacts = [10.0, 30.0]
+    log.doing = [
+        (8.5, "plan", "0.01", "tracking: following the background plan"),  # more than a second before: left out
+        (9.3, "local", "0.25", "tracking: tracking"),
+        (9.8, "local", "", "tracking: backtraced: interpolated step collides"),
+        (10.2, "hold", "0.9", "after the contact: left out"),
+    ]
+    res = summarise(log)
+    first, second = res["contacts_context"]
+    assert first == {"t": 10.0, "command_sources": ["local"], "p_collision_max": 0.25,
+                     "message": "tracking: backtraced: interpolated step collides"}  # fmt: skip
+    assert second["command_sources"] == [] and second["p_collision_max"] is None and second["message"] == ""
+    assert "| 10.0 | local | 0.250 |" in markdown(res)
+
+
 def test_group_usage_reads_this_process():
     own = process_usage(os.getpid())
     assert own is not None and own.rss_mb > 1.0 and own.fds >= 3 and own.threads >= 1
