@@ -74,7 +74,7 @@ from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
 from latent_planner_ros.perception.frames import path_to_world
 from latent_planner_ros.perception.scene_input import limit_points
 from latent_planner_ros.planning.amp_ls import AmpLs
-from latent_planner_ros.planning.backends import make_backend
+from latent_planner_ros.planning.backends import CLOUD_SCENE_BACKENDS, make_backend
 from latent_planner_ros.planning.closed_loop import ClosedLoopController, TickOutcome
 from latent_planner_ros.planning.cylinder_backend import CylinderBackend
 from latent_planner_ros.planning.goal import Goal
@@ -385,7 +385,7 @@ class PlannerNode(Node):
         controller = self.modes.amp_ls
         backend = controller.planner.backend
         obstacles = controller.set_cloud(cloud, received)  # at a grasp goal without the target's points
-        if backend.name == "geometric":
+        if backend.name in CLOUD_SCENE_BACKENDS:
             controller.set_scene(obstacles, received)
             return
         backend.set_cloud(obstacles)  # learned: the raw cloud feeds the hard check of each step
@@ -544,7 +544,7 @@ class PlannerNode(Node):
             if planner.config.use_collision and scene is None:
                 return "no scene received yet", None
             cloud = controller.raw_cloud  # the whole cloud: a grasp goal of the closed loop sets nothing aside here
-            if scene is not None and not lspp and planner.backend.name == "geometric":
+            if scene is not None and not lspp and planner.backend.name in CLOUD_SCENE_BACKENDS:
                 scene = cloud
             cfg = self.config
             spec = self.grasp_target.spec(cfg.grasp_approach_m, cfg.grasp_target_radius_m) if grasp else None

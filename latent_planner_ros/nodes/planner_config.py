@@ -34,7 +34,8 @@ class AmpLsParams:
     """"default" (every part beyond the seed on) or "seed" (the seed's Algorithm 1: no exact finish, guidance,
     RRT escape, shortcuts or lazy checks); the parameters below apply over it"""
     collision_backend: str = AmpLsConfig.collision_backend
-    """"learned" (scene embeddings + the collision predictor), "geometric" (arm spheres vs the cloud) or "none\""""
+    """"learned" (scene embeddings + the collision predictor), "geometric" (arm spheres vs the cloud), "local" (the
+    local collision network: the cloud points next to each link) or "none\""""
     lr: float = AmpLsConfig.lr
     """[latent units] step size of the closed loop's latent optimisation"""
     plan_lr: float = SearchConfig.plan_lr

@@ -5,6 +5,9 @@ from __future__ import annotations
 from latent_planner_ros.planning.collision_backend import CollisionBackend, NoCollision
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 
+CLOUD_SCENE_BACKENDS = ("geometric", "local")
+"""backends whose scene is the raw cloud itself (set_scene(cloud)); the learned one takes an embedding"""
+
 
 def make_backend(name: str, collision_checkpoint: str = "", cylinder_checkpoint: str = "") -> CollisionBackend:
     """ "learned" (scene embeddings + collision predictor), "geometric" (spheres vs cloud), "local" (the local

@@ -160,7 +160,7 @@ def _stop(procs: list[subprocess.Popen]) -> str:
 
 @pytest.mark.ros
 @pytest.mark.slow
-@pytest.mark.parametrize("backend", ["learned", "geometric"])
+@pytest.mark.parametrize("backend", ["learned", "geometric", "local"])
 def test_planner_node_plans_reaches_and_refuses_bad_goals(backend):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     procs = [_run("sim", ["--params-file", "config/sim.yaml", "-p", "scenario:=empty"], env)]
