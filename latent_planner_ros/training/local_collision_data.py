@@ -26,9 +26,6 @@ from latent_planner_ros.models.local_collision import LocalCollisionNet, Neighbo
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.torch_fk import TorchFK
 
-TABLETOP_FAMILIES = ("train", "heldout")
-"""scene families of the tabletop generator (every other family is a workcell's)"""
-
 
 def planning_camera() -> CameraConfig:
     """The data camera, cropped as the planners' clouds are (the arm's reach)."""
