@@ -12,7 +12,8 @@ def wilson_ci95(k: int, n: int) -> tuple[float, float]:
     z, p = 1.96, k / n
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return float(max(0.0, centre - half)), float(min(1.0, centre + half))
+    # the interval holds p itself (rounding can leave centre + half a hair below 1 at k = n)
+    return float(min(p, max(0.0, centre - half))), float(max(p, min(1.0, centre + half)))
 
 
 def percentile(values, q: float) -> float | None:

@@ -60,6 +60,64 @@ class BallQuery:
             self._tree = cKDTree(self.cloud, balanced_tree=False, compact_nodes=False)
         return self._tree
 
+    def maybe_occupied(self, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+        """(M,) bool: False only where no cloud point lies inside the sphere (centres (M, 3) [m], radii (M,) [m]):
+        the occupancy prefilter alone (True: a point lies in a voxel that overlaps the sphere's bounding box, or
+        the centre is not finite). A filter for callers that decide exactly later (`occupied` does so itself)."""
+        centres = np.asarray(centres, dtype=float).reshape(-1, 3)
+        radii = np.broadcast_to(np.asarray(radii, dtype=float), (len(centres),))
+        return self._box_counts(np.ascontiguousarray(centres.T), radii) > 0
+
+    def surely_occupied(self, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+        """(M,) bool: True only where a cloud point lies strictly inside the sphere (centres (M, 3) [m], radii (M,)
+        [m]): an occupied voxel lies wholly inside the cube inscribed in the sphere (no KD-tree; False says
+        nothing)."""
+        centres = np.asarray(centres, dtype=float).reshape(-1, 3)
+        radii = np.broadcast_to(np.asarray(radii, dtype=float), (len(centres),))
+        if not len(self.cloud) or not len(centres):
+            return np.zeros(len(centres), dtype=bool)
+        ct = np.ascontiguousarray(centres.T)
+        ok = np.isfinite(ct).all(axis=0)
+        ct = np.where(ok, ct, 0.0)
+        u = (ct - self._lo[:, None]) / self.cell  # (3, M) [voxels]
+        h = radii * (1.0 - 1e-6) / (np.sqrt(3.0) * self.cell) - 1e-6  # the inscribed cube's half side [voxels]
+        top = self._top[:, None]
+        a = np.minimum(np.maximum(np.ceil(u - h).astype(np.intp), 0), top)  # first voxel wholly inside
+        b = np.minimum(np.maximum(np.floor(u + h).astype(np.intp), 0), top)  # one past the last
+        return ok & (b > a).all(axis=0) & (self._count(a, b) > 0)
+
+    def _count(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(M,) occupied voxels in the boxes [a, b) of voxel indices a, b (3, M) (clipped to the prefix grid)."""
+        a = a * self._strides[:, None]  # flat offsets of the box corners along each axis
+        b = b * self._strides[:, None]
+        p = self._prefix.ravel()
+        (x0, y0, z0), (x1, y1, z1) = a, b
+        xy11, xy01, xy10, xy00 = x1 + y1, x0 + y1, x1 + y0, x0 + y0
+        return (
+            p[xy11 + z1] - p[xy01 + z1] - p[xy10 + z1] - p[xy11 + z0]
+            + p[xy00 + z1] + p[xy01 + z0] + p[xy10 + z0] - p[xy00 + z0]
+        )  # fmt: skip
+
+    def _box_counts(self, ct: np.ndarray, radii: np.ndarray) -> np.ndarray:
+        """(M,) occupied voxels overlapping each sphere's bounding box (centres ct (3, M) [m], radii (M,) [m]);
+        a non-finite centre counts 1 (refused, as `occupied` refuses it)."""
+        bad = ~np.isfinite(ct).all(axis=0)
+        if not len(self.cloud) or not ct.shape[1]:
+            return bad.astype(np.int32)
+        if bad.any():
+            ct = np.where(bad, 0.0, ct)
+        inv = 1.0 / self.cell
+        u = (ct - self._lo[:, None]) * inv  # (3, M) [voxels]
+        r = radii * inv + 1e-6  # widened by a hair: rounding never shrinks the box below the sphere's
+        top = self._top[:, None]
+        a = np.floor(u - r).astype(np.intp)
+        b = np.floor(u + r).astype(np.intp) + 1
+        np.minimum(np.maximum(a, 0, out=a), top, out=a)  # np.clip costs more than both at this size
+        np.minimum(np.maximum(b, 0, out=b), top, out=b)
+        count = self._count(a, b)
+        count[bad] = 1
+        return count
+
     def occupied(self, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
         """(M,) bool: True where a cloud point lies strictly inside the sphere (centres (M, 3) [m], radii (M,) [m]);
         also True for a non-finite centre."""
@@ -69,26 +127,7 @@ class BallQuery:
         hit = ~np.isfinite(ct).all(axis=0)
         if not len(self.cloud) or not len(centres):
             return hit
-        if hit.any():
-            ct[:, hit] = 0.0
-        inv = 1.0 / self.cell
-        u = (ct - self._lo[:, None]) * inv  # (3, M) [voxels]
-        r = radii * inv + 1e-6  # widened by a hair: rounding never shrinks the box below the sphere's
-        top, strides = self._top[:, None], self._strides[:, None]
-        a = np.floor(u - r).astype(np.intp)
-        b = np.floor(u + r).astype(np.intp) + 1
-        np.minimum(np.maximum(a, 0, out=a), top, out=a)  # np.clip costs more than both at this size
-        np.minimum(np.maximum(b, 0, out=b), top, out=b)
-        a *= strides  # flat offsets of the box corners along each axis
-        b *= strides
-        p = self._prefix.ravel()
-        (x0, y0, z0), (x1, y1, z1) = a, b
-        xy11, xy01, xy10, xy00 = x1 + y1, x0 + y1, x1 + y0, x0 + y0
-        count = (
-            p[xy11 + z1] - p[xy01 + z1] - p[xy10 + z1] - p[xy11 + z0]
-            + p[xy00 + z1] + p[xy01 + z0] + p[xy10 + z0] - p[xy00 + z0]
-        )  # fmt: skip
-        cand = np.flatnonzero(count > 0)
+        cand = np.flatnonzero((self._box_counts(ct, radii) > 0) & ~hit)
         if len(cand):
             bound = float(radii[cand].max()) + 1e-9
             d, _ = self._kdtree().query(ct[:, cand].T, distance_upper_bound=bound)

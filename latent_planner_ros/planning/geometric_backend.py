@@ -20,7 +20,7 @@ from scipy.ndimage import distance_transform_edt
 
 from latent_planner_ros.planning.ball_query import BallQuery, finite_rows
 from latent_planner_ros.planning.collision_backend import BackendDefaults
-from latent_planner_ros.robot.link_hulls import hull_cover_spheres, link_hull_planes, plane_distance
+from latent_planner_ros.robot.link_hulls import hull_cover_spheres, hull_inner_balls, link_hull_planes, plane_distance
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.spheres import panda_spheres
 from latent_planner_ros.robot.torch_fk import TorchFK
@@ -116,6 +116,12 @@ class GeometricBackend(BackendDefaults):
             max(0.0, -plane_distance(self._hulls[lk], c[None, :3])[0])
             for lk, c in zip(self._sphere_link, self._sphere_centre, strict=True)
         ])  # fmt: skip
+        # balls inside the hulls (link index, homogeneous centre (I, 4), radius + exact_margin [m]): an observed
+        # point in one refuses the configuration before any nearest-point search
+        inner_link, inner_centre, inner_radius = hull_inner_balls()
+        self._inner_link = inner_link
+        self._inner_centre = np.concatenate([inner_centre, np.ones((len(inner_link), 1))], 1)
+        self._inner_reach = inner_radius + (self.config.exact_margin or 0.0)
         self._lo = np.asarray(self.config.bounds_min, dtype=float)
         self._hi = np.asarray(self.config.bounds_max, dtype=float)
         self.set_scene(np.zeros((0, 3)))
@@ -216,25 +222,52 @@ class GeometricBackend(BackendDefaults):
         t = frames[:, self._sphere_link, :3, :]  # (M, S, 3, 4)
         big = len(frames) > EINSUM_BLAS_ROWS  # numpy's BLAS path: several times faster for many states
         c = np.einsum("msij,sj->msi", t, self._sphere_centre, optimize=big)  # R c + p, (M, S, 3)
-        # one ball per link first (it holds all of the link's check spheres): only links with a point in it are
-        # asked sphere by sphere (most states of a plan are far from most points)
+        # one ball per link first (it holds all of the link's check spheres): only links whose ball's box holds a
+        # point are asked sphere by sphere (most states of a plan are far from most points); both stages are the
+        # occupancy prefilter alone, the KD-tree decides once below
         lc = np.einsum("mlij,lj->mli", frames[:, self._bound_link, :3, :], self._bound_centre, optimize=big)
-        near = self._balls.occupied(lc.reshape(-1, 3), np.tile(self._bound_radius, len(frames)))
-        near = near.reshape(lc.shape[:2])[:, self._sphere_bound]  # (M, S): the sphere's link ball holds a point
-        hit = np.zeros(c.shape[:2], dtype=bool)
+        near = self._balls.maybe_occupied(lc.reshape(-1, 3), np.tile(self._bound_radius, len(frames)))
+        near = near.reshape(lc.shape[:2])[:, self._sphere_bound]  # (M, S): the sphere's link ball may hold a point
+        maybe = np.zeros(c.shape[:2], dtype=bool)
         if near.any():
-            hit[near] = self._balls.occupied(c[near], self._check_radius[np.nonzero(near)[1]])
-        if self.config.exact_margin is None or not hit.any():
-            return np.asarray(hit.any(axis=1))
-        return self._hull_hits(frames, c, hit)
+            maybe[near] = self._balls.maybe_occupied(c[near], self._check_radius[np.nonzero(near)[1]])
+        bad = ~np.isfinite(lc).all(axis=(1, 2))  # a non-finite configuration is refused
+        if bad.any():
+            maybe[bad] = False
+        if not maybe.any():
+            return bad
+        if self.config.exact_margin is None:
+            hit = np.zeros(c.shape[:2], dtype=bool)
+            hit[maybe] = self._balls.occupied(c[maybe], self._check_radius[np.nonzero(maybe)[1]])
+            return hit.any(axis=1) | bad
+        # sure hits first, without the KD-tree: an occupied voxel wholly inside one of the inner balls (grown by the
+        # margin) of a link with candidate spheres refuses the configuration with all of its candidates
+        todo = np.flatnonzero(maybe.any(axis=1))
+        ic = np.einsum("mlij,lj->mli", frames[todo][:, self._inner_link, :3, :], self._inner_centre)  # (T, I, 3)
+        link_cand = np.zeros((len(todo), len(LINK_FRAMES)), dtype=bool)
+        mt, st = np.nonzero(maybe[todo])
+        link_cand[mt, self._sphere_link[st]] = True
+        ask = link_cand[:, self._inner_link]  # (T, I): inner balls of links with candidates
+        sure = np.zeros(ask.shape, dtype=bool)
+        sure[ask] = self._balls.surely_occupied(ic[ask], np.broadcast_to(self._inner_reach, ask.shape)[ask])
+        sure = todo[sure.any(axis=1)]
+        maybe[sure] = False
+        out = self._hull_hits(frames, c, maybe) if maybe.any() else np.zeros(len(frames), dtype=bool)
+        out[sure] = True
+        return out | bad
 
-    def _hull_hits(self, frames: np.ndarray, centres: np.ndarray, hit: np.ndarray) -> np.ndarray:
-        """(M,) bool: configurations with an observed point that lies inside one of their hit spheres (M, S) and
-        within exact_margin of that sphere's link hull; frames (M, F, 4, 4), centres (M, S, 3) [m]."""
-        m_idx, s_idx = np.nonzero(hit)
-        # sure hits first: a point within core + margin of a sphere's centre is within margin of the hull, since
-        # the ball of radius core about that centre lies inside the hull (one nearest-point query per hit)
-        nearest, _ = self._balls._kdtree().query(centres[m_idx, s_idx])
+    def _hull_hits(self, frames: np.ndarray, centres: np.ndarray, maybe: np.ndarray) -> np.ndarray:
+        """(M,) bool: configurations with an observed point that lies inside one of their spheres marked `maybe`
+        (M, S) and within exact_margin of that sphere's link hull; frames (M, F, 4, 4), centres (M, S, 3) [m]."""
+        m_idx, s_idx = np.nonzero(maybe)
+        # one bounded nearest-point query per candidate sphere: none within its radius, no point inside it; sure
+        # hits next: a point within core + margin of a sphere's centre is within margin of the hull, since the ball
+        # of radius core about that centre lies inside the hull
+        radius = self._check_radius[s_idx]
+        nearest, _ = self._balls._kdtree().query(centres[m_idx, s_idx], distance_upper_bound=float(radius.max()))
+        nearest = np.asarray(nearest)
+        inside = nearest < radius
+        m_idx, s_idx, nearest = m_idx[inside], s_idx[inside], nearest[inside]
         out = np.zeros(len(frames), dtype=bool)
         out[m_idx[nearest <= self._core[s_idx] + self.config.exact_margin]] = True
         open_ = ~out[m_idx]
@@ -259,8 +292,8 @@ class GeometricBackend(BackendDefaults):
             sel = np.flatnonzero(link == lk)
             # a few of the hull's planes first: a point beyond one of them by more than the margin is out (exact:
             # the full test's maximum is at least that); the rest take all planes
-            maybe = plane_distance(self._hull_few[lk], local[sel]) <= margin
-            sel = sel[maybe]
+            few = plane_distance(self._hull_few[lk], local[sel]) <= margin
+            sel = sel[few]
             close[sel] = plane_distance(self._hulls[lk], local[sel]) <= margin
         out[m_idx[pair[close]]] = True
         return out

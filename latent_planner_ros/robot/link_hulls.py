@@ -85,3 +85,35 @@ def hull_cover_spheres() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                 centres.append(centre[j])
                 radii.append(float(np.linalg.norm(members - centre[j], axis=1).max()) + gap)
     return np.asarray(links), np.asarray(centres), np.asarray(radii)
+
+
+HULL_INNER_BALLS_PER_LINK = 4
+"""balls inside each link's hull (the hard check's sure hits)"""
+
+
+@lru_cache(maxsize=1)
+def hull_inner_balls() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Balls that lie inside each moving link's convex hull: (link index into LINK_FRAMES (B,), centre in the
+    link frame (B, 3) [m], radius (B,) [m]). A point within radius + m of a centre is within m of the hull, so an
+    observed point there refuses the configuration without a nearest-point search. Greedy over a 1 cm grid of
+    the hull's interior: the deepest point first, then the deepest outside the balls chosen (depth = distance
+    to the nearest facet plane, exact inside a convex hull). Deterministic; computed once."""
+    links, centres, radii = [], [], []
+    for name, vertices in link_vertices().items():
+        if name == "panda_link0":  # stands on the table
+            continue
+        planes = link_hull_planes()[LINK_FRAMES.index(name)]
+        axes = [np.arange(lo, hi, 0.01) for lo, hi in zip(vertices.min(axis=0), vertices.max(axis=0), strict=True)]
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        depth = -plane_distance(planes, grid)
+        grid, depth = grid[depth > 0], depth[depth > 0]
+        for _ in range(HULL_INNER_BALLS_PER_LINK):
+            if not len(grid):
+                break
+            j = int(np.argmax(depth))
+            links.append(LINK_FRAMES.index(name))
+            centres.append(grid[j])
+            radii.append(float(depth[j]))
+            keep = np.linalg.norm(grid - grid[j], axis=1) > depth[j]
+            grid, depth = grid[keep], depth[keep]
+    return np.asarray(links), np.asarray(centres), np.asarray(radii)

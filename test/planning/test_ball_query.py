@@ -76,3 +76,21 @@ def test_a_cloud_spread_far_along_one_axis_only_keeps_the_grid_small_and_the_ans
     radii = rng.uniform(0.0, 0.05, len(centres))
     radii[-1] = 0.02
     np.testing.assert_array_equal(q.occupied(centres, radii), _brute(cloud, centres, radii))
+
+
+@pytest.mark.parametrize("cell", [0.01, 0.02])
+def test_the_prefilters_bound_the_exact_answer(cell):
+    """maybe_occupied is False only where no point is inside, surely_occupied True only where one is; both are
+    exercised (a dense slab gives voxels wholly inside the larger spheres)."""
+    rng = np.random.default_rng(4)
+    cloud = rng.uniform(-0.3, 0.3, (20000, 3)) * [1.0, 1.0, 0.2]
+    centres = np.concatenate([rng.uniform(-0.4, 0.4, (600, 3)), [[np.nan, 0.0, 0.0]]])
+    radii = rng.uniform(0.0, 0.12, len(centres))
+    q = BallQuery(cloud, cell)
+    want = np.append(_brute(cloud, centres[:-1], radii[:-1]), True)
+    maybe, sure = q.maybe_occupied(centres, radii), q.surely_occupied(centres, radii)
+    assert not (want & ~maybe).any() and not (sure & ~want).any()
+    assert maybe[-1] and not sure[-1]  # a non-finite centre: refused by the filter, never a sure hit
+    assert sure.sum() > 20 and (maybe & ~want).sum() > 10  # both filters decide some, and leave some open
+    empty = BallQuery(np.zeros((0, 3)))
+    assert not empty.maybe_occupied([[0, 0, 0]], 1.0)[0] and not empty.surely_occupied([[0, 0, 0]], 1.0)[0]

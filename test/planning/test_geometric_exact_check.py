@@ -3,7 +3,7 @@
 import numpy as np
 
 from latent_planner_ros.planning.geometric_backend import GeometricBackend, GeometricBackendConfig
-from latent_planner_ros.robot.link_hulls import link_hull_planes, link_vertices, plane_distance
+from latent_planner_ros.robot.link_hulls import hull_inner_balls, link_hull_planes, link_vertices, plane_distance
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.spheres import _link_points, panda_spheres
 from latent_planner_ros.robot.torch_fk import TorchFK
@@ -70,3 +70,36 @@ def test_the_exact_stage_equals_a_brute_force_check():
     spheres_only.set_check_cloud(cloud)
     assert 0 < want.sum() < spheres_only.check(q).sum()  # the hulls let some sphere hits go, not all
     np.testing.assert_array_equal(backend.check(q), want)
+
+
+def test_inner_balls_lie_inside_their_hulls():
+    link, centre, radius = hull_inner_balls()
+    assert len(set(link.tolist())) == len(link_hull_planes()) - 1  # every moving link
+    rng = np.random.default_rng(0)
+    d = rng.normal(size=(200, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    for lk, c, r in zip(link, centre, radius, strict=True):
+        assert r > 0 and plane_distance(link_hull_planes()[lk], c + r * d).max() <= 1e-9
+
+
+def test_a_dense_cloud_is_checked_as_brute_force_says():
+    """A dense block (most refusals are decided by voxels wholly inside a link's inner ball) and a non-finite
+    configuration: the check equals "an observed point within 1 cm of a link's hull"."""
+    rng = np.random.default_rng(5)
+    backend = GeometricBackend()
+    q = rng.uniform(-1.5, 1.5, (60, 7)) * [1, 1, 1, 0.5, 1, 1, 1] + [0, 0, 0, -1.8, 0, 1.5, 0]
+    cloud = rng.uniform([0.3, -0.3, 0.2], [0.6, 0.3, 0.6], (30000, 3))
+    backend.set_check_cloud(cloud)
+    frames = TorchFK().frames_np(q)
+    want = np.zeros(len(q), dtype=bool)
+    for i in range(len(q)):
+        for lk, planes in link_hull_planes().items():
+            if lk == LINK_FRAMES.index("panda_link0"):
+                continue
+            local = (cloud - frames[i, lk, :3, 3]) @ frames[i, lk, :3, :3]
+            want[i] |= bool((plane_distance(planes, local) <= 0.01).any())
+    assert 0 < want.sum() < len(q)
+    np.testing.assert_array_equal(backend.check(q), want)
+    bad = q[:3].copy()
+    bad[1, 2] = np.nan
+    assert backend.check(bad).tolist() == [want[0], True, want[2]]
