@@ -33,7 +33,14 @@ from tqdm import tqdm
 from latent_planner_ros.batch.executor import Executor, ExecutorConfig, Job, add_executor_args, executor_config
 from latent_planner_ros.bench.report import bench_parser, write_report
 from latent_planner_ros.bench.scenarios import DEFAULT_SET, ScenarioError, ScenarioProblem, load_scenarios
-from latent_planner_ros.bench.table_planners import AMP_LS_VARIANTS, amp_ls_config, budgets, ompl_config, parse_planners
+from latent_planner_ros.bench.table_planners import (
+    AMP_LS_VARIANTS,
+    amp_ls_config,
+    budgets,
+    ompl_config,
+    parse_overrides,
+    parse_planners,
+)
 from latent_planner_ros.bench.table_report import figures, markdown, summarise
 from latent_planner_ros.data.camera import CameraConfig, planning_crop, sample_camera_pose
 from latent_planner_ros.planning.collision_backend import BackendDefaults
@@ -129,9 +136,18 @@ class TableRunner:
         table: the scenario set's table flag.
         threads: torch threads.
         checkpoint: collision predictor checkpoint stem of the learned backend ("" = the shipped one).
+        overrides: AMP-LS settings applied over every AMP-LS row's own (amp_ls.config.with_overrides).
     """
 
-    def __init__(self, names: list[str], backend: str, table: bool, threads: int = 1, checkpoint: str = ""):
+    def __init__(
+        self,
+        names: list[str],
+        backend: str,
+        table: bool,
+        threads: int = 1,
+        checkpoint: str = "",
+        overrides: dict | None = None,
+    ):
         import torch
 
         from latent_planner_ros.models.vae_io import load_vae, shipped_vae_path
@@ -148,7 +164,7 @@ class TableRunner:
         backends: dict = {}
         for name in names:
             if name in AMP_LS_VARIANTS:
-                variant, config = AMP_LS_VARIANTS[name], amp_ls_config(name, backend)
+                variant, config = AMP_LS_VARIANTS[name], amp_ls_config(name, backend, overrides)
                 if variant.vae not in vaes:
                     vaes[variant.vae] = load_vae(shipped_vae_path(variant.vae) if variant.vae else None)[0]
                 if config.collision_backend not in backends:
@@ -218,9 +234,11 @@ class TableRunner:
         return rows
 
 
-def _make_runner(names: list[str], backend: str, table: bool, threads: int, checkpoint: str) -> TableRunner:
+def _make_runner(
+    names: list[str], backend: str, table: bool, threads: int, checkpoint: str, overrides: dict | None = None
+) -> TableRunner:
     os.environ.setdefault("OMP_NUM_THREADS", str(threads))
-    return TableRunner(names, backend, table, threads, checkpoint)
+    return TableRunner(names, backend, table, threads, checkpoint, overrides)
 
 
 def _run_problem(runner: TableRunner, index: int, problem: ScenarioProblem, deadline: float) -> list[dict]:
@@ -237,15 +255,17 @@ def run_table(
     checkpoint: str = "",
     minutes: float = 0.0,
     executor: Executor | None = None,
+    overrides: dict | None = None,
 ) -> list[dict]:
     """Rows of every planner on every problem (sorted by problem, then table order), one task per problem on
-    `executor` (default: `workers` local processes; each worker builds the planners once).
+    `executor` (default: `workers` local processes; each worker builds the planners once). `overrides`: AMP-LS
+    settings over every AMP-LS row's own.
 
     With `minutes` > 0, problems not started within that wall time [min] are skipped (every planner runs on
     every problem that is started, so the comparison stays on the same problems).
     """
     deadline = time.time() + 60.0 * minutes if minutes > 0 else float("inf")
-    job = Job(_run_problem, _make_runner, (names, backend, table, threads, checkpoint))
+    job = Job(_run_problem, _make_runner, (names, backend, table, threads, checkpoint, overrides))
     rows: list[dict] = []
     bar = tqdm(total=len(problems), desc="bench table", unit="problem", dynamic_ncols=True)
     ex = executor or Executor(ExecutorConfig(workers=workers))  # local processes hold nothing to close
@@ -280,7 +300,16 @@ def main(argv: list[str]) -> int:
     p.add_argument("--minutes", type=float, default=0.0, help="wall-time budget: skip problems not started by then")
     add_executor_args(p)
     p.add_argument("--threads", type=int, default=1, help="torch threads per process")
+    p.add_argument(
+        "--amp-ls-set", action="append", default=[], metavar="KEY=VALUE",
+        help="AMP-LS setting over every AMP-LS row's own, e.g. escape.after_s=0.25 or finish=null (repeatable)",
+    )  # fmt: skip
     args = p.parse_args(argv)
+    try:
+        overrides = parse_overrides(args.amp_ls_set)
+    except ValueError as err:
+        print(f"bench table: --amp-ls-set: {err}", file=sys.stderr)
+        return 2
     try:
         scenarios = load_scenarios(args.scenarios or DEFAULT_SET).head(args.scenes)
     except ScenarioError as err:
@@ -303,7 +332,7 @@ def main(argv: list[str]) -> int:
     with Executor(executor_config(args)) as ex:
         rows = run_table(
             problems, names, backend, scenarios.table, threads=args.threads, checkpoint=args.collision_checkpoint,
-            minutes=args.minutes, executor=ex,
+            minutes=args.minutes, executor=ex, overrides=overrides,
         )  # fmt: skip
     done = sorted({r["problem"] for r in rows})
     if len(done) < len(problems):
@@ -320,7 +349,8 @@ def main(argv: list[str]) -> int:
         "backend": backend,
         "collision_checkpoint": args.collision_checkpoint or ("shipped" if backend == "learned" else ""),
         "tolerance": {"position_m": POS_TOL, "orientation_deg": ORI_TOL_DEG},
-        "budgets": budgets(),
+        "budgets": budgets(overrides),
+        "amp_ls_overrides": overrides,
         "workers": args.workers,
         "executor": ex.name,
         "cluster": args.cluster,

@@ -10,6 +10,7 @@ scene processing (AMP-LS: encoding the cloud; OMPL: building the octree and the 
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 
 from latent_planner_ros.planning.amp_ls import AmpLsConfig
@@ -98,10 +99,27 @@ SEED_TABLE_I = {
 """The seed's Table I (success, planning time [s], normalised path length); prmstar row = the seed's Lazy PRM*."""
 
 
-def amp_ls_config(name: str, backend: str) -> AmpLsConfig:
-    """The AmpLsConfig of row `name` with the run's default collision backend `backend`."""
+def amp_ls_config(name: str, backend: str, overrides: dict | None = None) -> AmpLsConfig:
+    """The AmpLsConfig of row `name` with the run's default collision backend `backend`, and the run's
+    `overrides` over the row's own (ValueError for an unknown field or a refused value)."""
     v = AMP_LS_VARIANTS[name]
-    return with_overrides(AmpLsConfig(collision_backend=v.backend or backend), v.overrides)
+    return with_overrides(AmpLsConfig(collision_backend=v.backend or backend), {**v.overrides, **(overrides or {})})
+
+
+def parse_overrides(items: list[str]) -> dict:
+    """{"escape.after_s": 0.25, "finish": None} from ["escape.after_s=0.25", "finish=null"] (values as JSON, else
+    strings), checked against AmpLsConfig; ValueError names the bad item."""
+    out: dict = {}
+    for item in items:
+        key, eq, text = item.partition("=")
+        if not eq or not key.strip():
+            raise ValueError(f"expected KEY=VALUE, got {item!r}")
+        try:
+            out[key.strip()] = json.loads(text)
+        except json.JSONDecodeError:
+            out[key.strip()] = text
+    with_overrides(AmpLsConfig(), out)
+    return out
 
 
 def ompl_config(name: str, table: bool) -> OmplConfig:
@@ -120,9 +138,9 @@ def parse_planners(text: str | None, default_backend: str) -> list[str]:
     return names
 
 
-def budgets() -> dict:
-    """The budgets of every row, for the report."""
-    a, o = AmpLsConfig(), OmplConfig()
+def budgets(overrides: dict | None = None) -> dict:
+    """The budgets of every row (AMP-LS's with the run's `overrides`), for the report."""
+    a, o = with_overrides(AmpLsConfig(), overrides or {}), OmplConfig()
     return {
         "amp_ls": {
             "max_steps": a.max_steps,

@@ -173,6 +173,8 @@ def markdown(results: dict) -> str:
         "",
         "Budgets: " + ", ".join(f"{k} {v}" for k, v in results["budgets"].items()),
     ]
+    if results.get("amp_ls_overrides"):
+        lines += ["", f"AMP-LS settings over every AMP-LS row's own (`--amp-ls-set`): {results['amp_ls_overrides']}"]
     if results.get("notes"):
         lines += ["", "Notes:", *[f"- {n}" for n in results["notes"]]]
     return "\n".join(lines)

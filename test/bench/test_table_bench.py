@@ -107,3 +107,18 @@ def test_a_grasp_problem_runs_through_plan_grasp_for_every_planner(tmp_path):
         assert r["grasp"] and r["target_points"] > 0, r
         assert r["approach"], r
         assert not (r["claimed"] and r["collision"]), r
+
+
+def test_amp_ls_settings_reach_every_amp_ls_row_and_bad_ones_are_refused(tmp_path, capsys):
+    scenarios = save_scenarios(generate_set(GeneratorConfig(problems=2, seed=78), progress=False), tmp_path / "s.json")
+    sets = ["max_steps=1", "finish=null", "escape=null", "guidance=null"]
+    argv = ["--out", str(tmp_path / "out"), "--scenarios", str(scenarios), "--planners", "amp_ls,amp_ls_geometric"]
+    assert bench_table([*argv, "--backend", "geometric", "--workers", "1", *[f"--amp-ls-set={s}" for s in sets]]) == 0
+    data = json.loads((tmp_path / "out" / "table.json").read_text())
+    assert data["amp_ls_overrides"] == {"max_steps": 1, "finish": None, "escape": None, "guidance": None}
+    assert data["budgets"]["amp_ls"]["max_steps"] == 1 and data["budgets"]["amp_ls"]["rrt_escape_after_s"] is None
+    assert {r["reason"] for r in data["rows"]} == {"step budget exhausted"}  # one step, nothing to finish with
+    assert "`--amp-ls-set`" in (tmp_path / "out" / "table.md").read_text()
+    for bad, why in (("nope=1", "unknown AMP-LS field 'nope'"), ("escape.after_s", "expected KEY=VALUE")):
+        assert bench_table([*argv, f"--amp-ls-set={bad}"]) == 2
+        assert why in capsys.readouterr().err
