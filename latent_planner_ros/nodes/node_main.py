@@ -9,6 +9,7 @@ from __future__ import annotations
 import faulthandler
 import signal
 import sys
+import time
 from collections.abc import Callable
 
 import rclpy
@@ -17,6 +18,21 @@ from rclpy.logging import get_logger
 from rclpy.node import Node
 
 from latent_planner_ros.params.ros import undeclared_overrides
+
+SHUTDOWN_GRACE_S = 0.5
+"""after an error in spin, how long [s] to wait for a shutdown that a signal has started (rclpy's signal handler
+wakes the executor, which may fail to take a message from a subscription being torn down, before the context
+says it is shut down)"""
+
+
+def _shutting_down(grace_s: float = SHUTDOWN_GRACE_S) -> bool:
+    """True if the rclpy context is shut down now or within grace_s [s]."""
+    deadline = time.monotonic() + grace_s
+    while rclpy.ok():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True
 
 
 def run_node(name: str, factory: Callable[[], Node], startup_errors: tuple[type[BaseException], ...]) -> int:
@@ -46,7 +62,7 @@ def run_node(name: str, factory: Callable[[], Node], startup_errors: tuple[type[
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception:
-        if rclpy.ok():  # a real error; after SIGTERM/SIGINT a callback may race the shutdown: ignore that
+        if not _shutting_down():  # a real error; after SIGTERM/SIGINT a callback may race the shutdown: ignore that
             raise
     finally:
         if node is not None:
