@@ -5,6 +5,10 @@ and the arm has 66 spheres per configuration. Nearly all of them are far from ev
 filter goes first: the cloud's occupancy on a grid of `cell` [m] voxels, as a 3D prefix sum, counts the
 occupied voxels that overlap each sphere's bounding box in eight lookups. A sphere whose box holds no point
 is free; only the rest (typically under 1 %) go to the KD-tree. The answer equals the KD-tree's alone.
+
+Callers that decide exactly later use the two bounds alone: `maybe_occupied` (the bounding-box count: False only
+where no point is inside) and `surely_occupied` (an occupied voxel wholly inside the sphere's inscribed cube: True
+only where a point is inside).
 """
 
 from __future__ import annotations

@@ -6,7 +6,8 @@ field`: voxel grid, trilinear interpolation; a field over the arm's whole reach 
 hard check is exact (ball_query.py: an occupancy prefilter, then a KD-tree), so no checked
 state has an observed point inside any of the arm's (conservative) spheres, or, with `exact_margin`, no observed
 point inside a sphere and within that margin of the link's convex hull: the spheres find the candidates, the
-hulls decide.
+hulls decide. With `exact_margin`, an occupied voxel wholly inside one of a link's inner balls (balls inside its
+hull, robot/link_hulls.hull_inner_balls) refuses a configuration before any KD-tree query; the answers are the same.
 """
 
 from __future__ import annotations

@@ -10,6 +10,7 @@ import yaml
 from latent_planner_ros.nodes.planner_config import PlannerNodeConfig
 from latent_planner_ros.params.config import ConfigError, from_params, to_params
 from latent_planner_ros.planning.amp_ls import AmpLsConfig
+from latent_planner_ros.planning.amp_ls.config import SearchConfig
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -100,6 +101,6 @@ def test_presets_are_chosen_by_name_and_the_parameters_apply_over_them():
     config = from_params(PlannerNodeConfig, {"amp_ls.preset": "seed", "amp_ls.n_seeds": 2, "lspp.preset": "lspp_seed"})
     amp = config.amp_ls_config()
     assert amp.finish is None and amp.escape is None and not amp.checks.lazy  # the seed's Algorithm 1
-    assert amp.search.n_seeds == 2 and amp.search.plan_lr == 0.3  # the node's parameters over it
+    assert amp.search.n_seeds == 2 and amp.search.plan_lr == SearchConfig.plan_lr  # the node's parameters over it
     lspp = config.lspp_config()
     assert lspp.search.n_seeds == 1 and lspp.max_steps == 300 and lspp.tau_col == 0.7
