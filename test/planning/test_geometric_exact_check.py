@@ -49,13 +49,19 @@ def test_points_in_a_sphere_but_off_the_hull_are_accepted_and_near_ones_refused(
         assert exact.check(np.stack([READY, READY + 0.4, READY])).tolist() == [True, False, True]
 
 
-def test_the_exact_stage_equals_a_brute_force_check():
-    rng = np.random.default_rng(1)
+def _block_scene(seed: int, points: int):
+    """60 configurations around the ready pose, a block of `points` random points in front of the arm, the backend
+    holding it, and the configurations' link frames."""
+    rng = np.random.default_rng(seed)
     backend = GeometricBackend()
     q = rng.uniform(-1.5, 1.5, (60, 7)) * [1, 1, 1, 0.5, 1, 1, 1] + [0, 0, 0, -1.8, 0, 1.5, 0]
-    cloud = rng.uniform([0.3, -0.3, 0.2], [0.6, 0.3, 0.6], (300, 3))
+    cloud = rng.uniform([0.3, -0.3, 0.2], [0.6, 0.3, 0.6], (points, 3))
     backend.set_check_cloud(cloud)
-    frames = TorchFK().frames_np(q)
+    return backend, q, cloud, TorchFK().frames_np(q)
+
+
+def test_the_exact_stage_equals_a_brute_force_check():
+    backend, q, cloud, frames = _block_scene(1, 300)
     spheres = panda_spheres()
     want = np.zeros(len(q), dtype=bool)
     for i in range(len(q)):
@@ -85,12 +91,7 @@ def test_inner_balls_lie_inside_their_hulls():
 def test_a_dense_cloud_is_checked_as_brute_force_says():
     """A dense block (most refusals are decided by voxels wholly inside a link's inner ball) and a non-finite
     configuration: the check equals "an observed point within 1 cm of a link's hull"."""
-    rng = np.random.default_rng(5)
-    backend = GeometricBackend()
-    q = rng.uniform(-1.5, 1.5, (60, 7)) * [1, 1, 1, 0.5, 1, 1, 1] + [0, 0, 0, -1.8, 0, 1.5, 0]
-    cloud = rng.uniform([0.3, -0.3, 0.2], [0.6, 0.3, 0.6], (30000, 3))
-    backend.set_check_cloud(cloud)
-    frames = TorchFK().frames_np(q)
+    backend, q, cloud, frames = _block_scene(5, 30000)
     want = np.zeros(len(q), dtype=bool)
     for i in range(len(q)):
         for lk, planes in link_hull_planes().items():
