@@ -72,11 +72,19 @@ def run_boundary(boundary, examples: int, seed: int) -> dict:
     }
 
 
+def _requested(n: int, run: int | None, what: str) -> str:
+    """ "10000 generated inputs requested per adapter (9 run)", or "no adapter run" (run None: not recorded)."""
+    if run == 0:
+        return f"no {what} run"
+    return f"{n} generated inputs requested per {what}" + ("" if run is None else f" ({run} run)")
+
+
 def markdown(res: dict) -> str:
     lines = [
         "# Property-based fuzzing of every input boundary",
         "",
-        f"{res['examples']} generated inputs requested per adapter, {res['node_examples']} per node callback "
+        f"{_requested(res['examples'], res.get('adapters_run'), 'adapter')}, "
+        f"{_requested(res['node_examples'], res.get('node_callbacks_run'), 'node callback')} "
         f"(hypothesis seed {res['seed']}). Escaped exceptions: **{res['escaped_total']}**, invariant violations: "
         f"**{res['invariant_violations_total']}**, fewest inputs at one boundary: {res['inputs_min']}.",
         "",
@@ -150,6 +158,7 @@ def main(argv: list[str]) -> int:
     for boundary in ADAPTER_BOUNDARIES:
         if wanted(boundary.name):
             run(boundary, args.examples)
+    adapters_run = len(boundaries)
     nodes_wanted = [n for n in _node_names() if not only or any(n.startswith(o) or o.startswith(n) for o in only)]
     if nodes_wanted:
         import rclpy
@@ -179,6 +188,8 @@ def main(argv: list[str]) -> int:
         "node_examples": node_examples,
         "seed": args.seed,
         "boundaries": boundaries,
+        "adapters_run": adapters_run,
+        "node_callbacks_run": len(boundaries) - adapters_run,
         "valid_after": valid_after,
         "inputs_min": min((b["inputs"] for b in boundaries.values()), default=0),
         "escaped_total": sum(b["escaped"] for b in boundaries.values()),
