@@ -65,7 +65,10 @@ def find_scenario_file(name_or_path: str) -> Path:
     Raises:
         ScenarioError: naming the directories searched and the scenarios available.
     """
-    path = Path(name_or_path).expanduser()
+    try:
+        path = Path(name_or_path).expanduser()
+    except RuntimeError as err:  # "~someone/..." for a user this machine does not know
+        raise ScenarioError(f"scenario path {name_or_path!r}: {err}") from None
     if path.suffix in (".yaml", ".yml") or os.sep in name_or_path:
         if path.is_file():
             return path

@@ -66,3 +66,12 @@ def test_the_planner_drops_far_outliers_of_a_cloud():
     finally:
         node.destroy_node()
         rclpy.shutdown()
+
+
+def test_a_scenario_path_of_an_unknown_users_home_is_refused_with_a_reason():
+    """bench fuzz (sim.reset, sim.parameters): "~someone/x" raised RuntimeError from Path.expanduser."""
+    from sim_bridge.scenario import ScenarioError
+    from sim_bridge.scenario_files import find_scenario_file
+
+    with pytest.raises(ScenarioError, match="~no_such_user_xyz/scene.yaml"):
+        find_scenario_file("~no_such_user_xyz/scene.yaml")
