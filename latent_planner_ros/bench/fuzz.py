@@ -23,6 +23,14 @@ from collections import Counter
 from latent_planner_ros.bench.report import bench_parser, write_report
 
 
+def _describe(msg) -> str:
+    """The input as text: a parameter (or a list of them) by name, type and value, anything else by repr."""
+    items = msg if isinstance(msg, list | tuple) else [msg]
+    if items and all(hasattr(p, "name") and hasattr(p, "value") and hasattr(p, "type_") for p in items):
+        return ", ".join(f"{p.name} = {p.value!r} ({p.type_.name})" for p in items)
+    return repr(msg)
+
+
 def run_boundary(boundary, examples: int, seed: int) -> dict:
     """Run `examples` generated inputs through boundary.check, catching everything; a summary dict."""
     from hypothesis import HealthCheck, Phase, given, settings
@@ -37,7 +45,7 @@ def run_boundary(boundary, examples: int, seed: int) -> dict:
         counts[kind] += 1
         key = f"{kind}: {type(err).__name__}: {str(err).splitlines()[0][:160] if str(err) else ''}"
         if key not in findings:
-            findings[key] = {"count": 0, "input": repr(msg)[:600]}
+            findings[key] = {"count": 0, "input": _describe(msg)[:600]}
         findings[key]["count"] += 1
 
     @hypothesis_seed(seed)

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from latent_planner_ros.nodes.frames_config import FRAMES_READ_ONLY, FramesConfig
 from latent_planner_ros.nodes.param_ranges import PLANNING_RANGES
 from latent_planner_ros.nodes.scene_encoder_config import check_topics
-from latent_planner_ros.params.config import ConfigError, check_number
+from latent_planner_ros.params.config import MIN_RATE_HZ, ConfigError, check_number
 from latent_planner_ros.planning.motion_limits import MotionLimits
 from latent_planner_ros.planning.ompl_baseline_config import OmplConfig
 
@@ -49,7 +49,7 @@ class OmplPlannerNodeConfig:
         check_number("stale_joint_states_s", self.stale_joint_states_s, 0.0, 60.0, open_low=True)
         check_number("pos_tol", self.pos_tol, 0.0, 1.0, open_low=True)
         check_number("ori_tol_deg", self.ori_tol_deg, 0.0, 180.0, open_low=True)
-        check_number("status_rate_hz", self.status_rate_hz, 0.0, 100.0, open_low=True)
+        check_number("status_rate_hz", self.status_rate_hz, MIN_RATE_HZ, 100.0)
         check_topics("cloud_topics", self.cloud_topics)
         check_number("cloud_max_age_s", self.cloud_max_age_s, 0.0, 3600.0)
         check_number("grasp_approach_m", self.grasp_approach_m, 0.0, 0.3)
@@ -62,7 +62,7 @@ RANGES = {
         "stale_joint_states_s": "(0, 60]",
         "pos_tol": "(0, 1]",
         "ori_tol_deg": "(0, 180]",
-        "status_rate_hz": "(0, 100]",
+        "status_rate_hz": "[0.01, 100]",
         "cloud_max_age_s": "[0, 3600]",
         "grasp_approach_m": "[0, 0.3]",
         "grasp_target_radius_m": "[0, 0.2]",

@@ -17,7 +17,7 @@ OMPL = {
     ),
     "padding": ">= 0",
     "range_rad": ">= 0",
-    "check_step_deg": "(0, 10]",
+    "check_step_deg": "[0.01, 10]",
     "speed_scale": "(0, 1]",
 }
 

@@ -14,7 +14,7 @@ from latent_planner_ros.nodes.frames_config import FRAMES_READ_ONLY, FramesConfi
 from latent_planner_ros.nodes.param_ranges import PLANNING_RANGES
 from latent_planner_ros.nodes.planner_tuning import load_tuning
 from latent_planner_ros.nodes.scene_encoder_config import check_topics
-from latent_planner_ros.params.config import ConfigError
+from latent_planner_ros.params.config import MIN_RATE_HZ, ConfigError
 from latent_planner_ros.planning.amp_ls import AmpLsConfig, PlanConfig, SearchConfig, presets
 from latent_planner_ros.planning.amp_ls.config import with_overrides
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig
@@ -185,8 +185,8 @@ class PlannerNodeConfig:
     """the planner used while cylinder obstacles are set (position-only goals)"""
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.status_rate_hz, int | float) and 0 < self.status_rate_hz <= 100):
-            raise ValueError(f"status_rate_hz must be in (0, 100], got {self.status_rate_hz!r}")
+        if not (isinstance(self.status_rate_hz, int | float) and MIN_RATE_HZ <= self.status_rate_hz <= 100):
+            raise ValueError(f"status_rate_hz must be in [{MIN_RATE_HZ}, 100], got {self.status_rate_hz!r}")
         n = self.cloud_max_points
         if not (isinstance(n, int) and not isinstance(n, bool) and 1_000 <= n <= 10_000_000):
             raise ValueError(f"cloud_max_points must be an integer in [1000, 10000000], got {n!r}")
@@ -236,14 +236,15 @@ RANGES = {
         "timeout_s": ">= 0",
     },
     ClosedLoopParams: {
-        **dict.fromkeys(("rate_hz", "tick_budget_ms", "stale_scene_s", "no_progress_s"), "> 0"),
+        "rate_hz": ">= 0.01",
+        **dict.fromkeys(("tick_budget_ms", "stale_scene_s", "no_progress_s"), "> 0"),
         "max_iterations_per_tick": "[1, 100]",
         **dict.fromkeys(("goal_lead_s", "evade_margin_m", "servo_radius_m"), ">= 0"),
     },
     PlannerNodeConfig: {
         "cloud_max_points": "[1000, 10000000]",
         "cloud_voxel_m": "[0, 0.5]",
-        "status_rate_hz": "(0, 100]",
+        "status_rate_hz": "[0.01, 100]",
         "cloud_max_age_s": "[0, 3600]",
         "grasp_approach_m": "[0, 0.3]",
         "grasp_target_radius_m": "[0, 0.2]",

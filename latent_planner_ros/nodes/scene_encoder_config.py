@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from latent_planner_ros.nodes.frames_config import FRAMES_READ_ONLY, FramesConfig
-from latent_planner_ros.params.config import ConfigError, check_int, check_number
+from latent_planner_ros.params.config import MIN_RATE_HZ, ConfigError, check_int, check_number
 
 
 @dataclass
@@ -35,7 +35,7 @@ class SceneEncoderNodeConfig:
         check_int("max_points", self.max_points, 1, 10_000_000)
         check_number("downsample_voxel", self.downsample_voxel, 0.0, 0.5)
         check_number("stale_after_s", self.stale_after_s, 0.0, 3600.0, open_low=True)
-        check_number("status_rate_hz", self.status_rate_hz, 0.0, 100.0, open_low=True)
+        check_number("status_rate_hz", self.status_rate_hz, MIN_RATE_HZ, 100.0)
         check_number("origin_max_age_s", self.origin_max_age_s, 0.0, 3600.0)
         check_topics("cloud_topics", self.cloud_topics)
         check_number("cloud_max_age_s", self.cloud_max_age_s, 0.0, 3600.0)
@@ -59,7 +59,7 @@ RANGES = {
         "max_points": "[1, 10000000]",
         "downsample_voxel": "[0, 0.5]",
         "stale_after_s": "(0, 3600]",
-        "status_rate_hz": "(0, 100]",
+        "status_rate_hz": "[0.01, 100]",
         "origin_max_age_s": "[0, 3600]",
         "cloud_max_age_s": "[0, 3600]",
     }

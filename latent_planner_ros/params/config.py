@@ -10,7 +10,7 @@ import dataclasses
 import math
 import re
 from collections.abc import Mapping
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 C = TypeVar("C")
 
@@ -44,10 +44,10 @@ def from_params(cls: type[C], params: Mapping[str, Any], base: C | None = None, 
         unknown = sorted(set(params) - known)
         if unknown:
             raise ConfigError(f"{unknown[0]}: unknown parameter")
-    kwargs = {}
-    for f in dataclasses.fields(cls):
+    kwargs: dict[str, Any] = {}
+    for f in dataclasses.fields(cast(Any, cls)):
         name = prefix + f.name
-        current = getattr(base, f.name)
+        current: Any = getattr(base, f.name)
         if dataclasses.is_dataclass(current):
             kwargs[f.name] = from_params(type(current), params, current, name + ".")
         elif name in params:
@@ -58,7 +58,7 @@ def from_params(cls: type[C], params: Mapping[str, Any], base: C | None = None, 
     try:
         return cls(**kwargs)
     except (ConfigError, ValueError, TypeError) as err:
-        raise ConfigError(qualify(str(err), prefix, [f.name for f in dataclasses.fields(cls)])) from None
+        raise ConfigError(qualify(str(err), prefix, [f.name for f in dataclasses.fields(cast(Any, cls))])) from None
 
 
 def qualify(message: str, prefix: str, names) -> str:
@@ -74,6 +74,11 @@ def qualify(message: str, prefix: str, names) -> str:
             part = prefix + head.group(1) + part[head.end() :]
         parts.append(part)
     return "; ".join(parts)
+
+
+MIN_RATE_HZ = 0.01
+"""lowest rate [Hz] a rate parameter takes: its timer's period (100 s at most) must be a finite count of
+nanoseconds (a rate of 1e-320 Hz passed "> 0" and gave an infinite period)"""
 
 
 def check_number(name: str, value: Any, low: float | None = None, high: float | None = None, open_low=False) -> None:

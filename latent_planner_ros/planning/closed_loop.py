@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from latent_planner_ros.params.config import MIN_RATE_HZ
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.evasion import Evader
 from latent_planner_ros.planning.goal import Goal
@@ -107,6 +108,8 @@ class ClosedLoopConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+        if self.rate_hz < MIN_RATE_HZ:  # its timer's period must be a finite count of nanoseconds
+            raise ValueError(f"rate_hz must be at least {MIN_RATE_HZ} Hz, got {self.rate_hz!r}")
         for name in ("max_iterations_per_tick", "accepted_steps_per_tick"):
             v = getattr(self, name)
             if not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 100):

@@ -18,6 +18,10 @@ PLANNERS: dict[str, tuple[str, bool]] = {
 the others stop at their first solution. PRMstar stands in for LazyPRMstar, which the wheels do not bind."""
 
 
+MIN_CHECK_STEP_DEG = 0.01
+"""finest motion-check step [deg]: OMPL refuses a resolution that rounds to nothing"""
+
+
 @dataclass
 class OmplConfig:
     """Every field maps 1:1 onto a ROS parameter of the ompl_planner node (prefix ``ompl.``)."""
@@ -82,6 +86,8 @@ class OmplConfig:
         step = self.check_step_deg
         if isinstance(step, int | float) and step > 10:
             problems.append(f"check_step_deg must be <= 10 (coarser checks tunnel through thin obstacles), got {step}")
+        if isinstance(step, int | float) and 0 < step < MIN_CHECK_STEP_DEG:  # OMPL refuses a vanishing resolution
+            problems.append(f"check_step_deg must be >= {MIN_CHECK_STEP_DEG} (a motion would take millions of checks)")
         if not (isinstance(self.seed, int) and not isinstance(self.seed, bool)):
             problems.append(f"seed must be an integer, got {self.seed!r}")
         if problems:

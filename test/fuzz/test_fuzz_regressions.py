@@ -75,3 +75,48 @@ def test_a_scenario_path_of_an_unknown_users_home_is_refused_with_a_reason():
 
     with pytest.raises(ScenarioError, match="~no_such_user_xyz/scene.yaml"):
         find_scenario_file("~no_such_user_xyz/scene.yaml")
+
+
+@pytest.mark.ros
+def test_a_vanishing_rate_is_refused_and_the_status_timer_survives():
+    """bench fuzz (scene_encoder.parameters, 1000 inputs): status_rate_hz = 1e-320 passed "> 0", its timer's period
+    was infinite (OverflowError) after the old timer was destroyed, and every later change raised InvalidHandle.
+    Rates now start at MIN_RATE_HZ, in every node that takes one."""
+    import rclpy
+    from rclpy.parameter import Parameter
+
+    from latent_planner_ros.nodes.ompl_planner_config import OmplPlannerNodeConfig
+    from latent_planner_ros.nodes.planner_config import PlannerNodeConfig
+    from latent_planner_ros.nodes.scene_encoder import SceneEncoderNode
+    from latent_planner_ros.params.config import MIN_RATE_HZ, ConfigError, from_params
+
+    for cls, name in ((OmplPlannerNodeConfig, "status_rate_hz"), (PlannerNodeConfig, "status_rate_hz"),
+                      (PlannerNodeConfig, "closed_loop.rate_hz")):  # fmt: skip
+        with pytest.raises(ConfigError, match=name.split(".")[-1]):
+            from_params(cls, {name: 1e-320})
+        from_params(cls, {name: MIN_RATE_HZ})
+    rclpy.init()
+    node = SceneEncoderNode()
+    try:
+        r = node.set_parameters([Parameter("status_rate_hz", value=1e-320)])[0]
+        assert not r.successful and "status_rate_hz" in r.reason
+        assert node.set_parameters([Parameter("status_rate_hz", value=5.0)])[0].successful
+        assert node._status_timer.timer_period_ns == 200_000_000
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()
+
+
+def test_vanishing_check_steps_are_refused():
+    """bench fuzz (ompl_planner.parameters, 1000 inputs): ompl.check_step_deg = 1.7e-140 passed "> 0" and OMPL
+    raised RuntimeError on the resolution; AMP-LS's check_step_rad of 1e-12 would densify a step into ~1e12 states."""
+    from latent_planner_ros.planning.amp_ls.config import MIN_CHECK_STEP_RAD, CheckConfig
+    from latent_planner_ros.planning.ompl_baseline_config import MIN_CHECK_STEP_DEG, OmplConfig
+
+    with pytest.raises(ValueError, match="check_step_deg must be >= 0.01"):
+        OmplConfig(check_step_deg=1.7204630602674179e-140)
+    assert OmplConfig(check_step_deg=MIN_CHECK_STEP_DEG).check_step_deg == MIN_CHECK_STEP_DEG
+    with pytest.raises(ValueError, match="check_step_rad must be 0 or in"):
+        CheckConfig(check_step_rad=1e-12)
+    assert CheckConfig(check_step_rad=MIN_CHECK_STEP_RAD).check_step_rad == MIN_CHECK_STEP_RAD
+    assert CheckConfig(check_step_rad=0.0).check_step_rad == 0.0  # the seed's fixed interp_steps

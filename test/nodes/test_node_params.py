@@ -40,8 +40,8 @@ def _set(node, name, value):
 def test_descriptors_carry_type_description_range_and_read_only(ompl_node):
     d = ompl_node.describe_parameter("status_rate_hz")
     assert not d.dynamic_typing and d.type == Parameter.Type.DOUBLE.value
-    assert "[Hz]" in d.description and d.additional_constraints == "valid range (0, 100]"
-    assert (d.floating_point_range[0].from_value, d.floating_point_range[0].to_value) == (0.0, 100.0)
+    assert "[Hz]" in d.description and d.additional_constraints == "valid range [0.01, 100]"
+    assert (d.floating_point_range[0].from_value, d.floating_point_range[0].to_value) == (0.01, 100.0)
     ik = ompl_node.describe_parameter("ompl.ik.pos_tol")
     assert "[m]" in ik.description and ik.additional_constraints == "valid range > 0"
     assert ompl_node.describe_parameter("cloud_topics").read_only

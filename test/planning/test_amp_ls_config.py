@@ -26,7 +26,7 @@ def test_overrides_set_top_level_and_part_fields_and_switch_parts_off():
         ({"search.n_seeds": 0}, "search.n_seeds must be an integer >= 1"),
         ({"finish.radius_m": 0.0}, "finish.radius_m must be a number > 0"),
         ({"escape": None, "escape.budget_s": 1.0}, "switch escape off and set escape.budget_s"),
-        ({"checks.check_step_rad": 0.6}, r"checks.check_step_rad must be in \[0, 0.5\]"),
+        ({"checks.check_step_rad": 0.6}, r"checks.check_step_rad must be 0 or in \[0.001, 0.5\]"),
     ],
 )
 def test_bad_overrides_are_refused_by_name(overrides, message):

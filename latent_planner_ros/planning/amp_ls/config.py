@@ -80,6 +80,10 @@ class SearchConfig:
         )
 
 
+MIN_CHECK_STEP_RAD = 0.001
+"""finest check step [rad] (a step of 1 rad then takes 1000 checked states, not billions)"""
+
+
 @dataclass
 class CheckConfig:
     """The segment checker (`checker.SegmentChecker`): the hard check of interpolated steps."""
@@ -104,8 +108,9 @@ class CheckConfig:
 
     def __post_init__(self) -> None:
         problems = _problems(self, non_negative=("escape_rad",))
-        if not (isinstance(self.check_step_rad, int | float) and 0.0 <= self.check_step_rad <= 0.5):
-            problems.append(f"check_step_rad must be in [0, 0.5], got {self.check_step_rad!r}")
+        step = self.check_step_rad
+        if not (isinstance(step, int | float) and (step == 0.0 or MIN_CHECK_STEP_RAD <= step <= 0.5)):
+            problems.append(f"check_step_rad must be 0 or in [{MIN_CHECK_STEP_RAD}, 0.5], got {step!r}")
         if not (isinstance(self.backtrace_keep, int | float) and 0.0 <= self.backtrace_keep < 1.0):
             problems.append(f"backtrace_keep must be in [0, 1), got {self.backtrace_keep!r}")
         _raise("checks.", problems)
