@@ -40,9 +40,12 @@ def save_checkpoint(stem: str | Path, tensors: dict[str, torch.Tensor], metadata
 def load_checkpoint(stem: str | Path) -> tuple[dict[str, torch.Tensor], dict]:
     """Read the tensors and metadata of `stem`; raises CheckpointError on any problem."""
     stem = Path(stem)
-    if stem.suffix in (".safetensors", ".json"):
-        stem = stem.with_suffix("")
-    weights, meta = stem.with_suffix(".safetensors"), stem.with_suffix(".json")
+    try:
+        if stem.suffix in (".safetensors", ".json"):
+            stem = stem.with_suffix("")
+        weights, meta = stem.with_suffix(".safetensors"), stem.with_suffix(".json")
+    except ValueError as e:  # "." or "/": a path with no file name
+        raise CheckpointError(f"checkpoint {str(stem)!r} names no file: {e}") from None
     for f in (weights, meta):
         if not f.is_file():
             raise CheckpointError(f"checkpoint file missing: {f}")

@@ -120,3 +120,13 @@ def test_vanishing_check_steps_are_refused():
         CheckConfig(check_step_rad=1e-12)
     assert CheckConfig(check_step_rad=MIN_CHECK_STEP_RAD).check_step_rad == MIN_CHECK_STEP_RAD
     assert CheckConfig(check_step_rad=0.0).check_step_rad == 0.0  # the seed's fixed interp_steps
+
+
+def test_a_checkpoint_path_with_no_file_name_is_refused_as_a_checkpoint_error():
+    """bench fuzz (scene_encoder.parameters, 10,000 inputs): checkpoint = '.' raised ValueError from
+    Path.with_suffix, which the parameter callback does not expect from a checkpoint."""
+    from latent_planner_ros.models.checkpoint import CheckpointError, load_checkpoint
+
+    for stem in (".", "/", ""):
+        with pytest.raises(CheckpointError, match="names no file|checkpoint file missing"):
+            load_checkpoint(stem)
