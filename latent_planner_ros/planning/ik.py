@@ -155,7 +155,12 @@ def solve_ik(panda: PandaModel, goal: Goal, q0: np.ndarray, config: IkConfig, fr
             jac = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)[:3]
         else:
             jac = pin.Jlog6(err_se3.inverse()) @ pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)
-        dq = jac.T @ np.linalg.solve(jac @ jac.T + damping, err)
+        try:
+            dq = jac.T @ np.linalg.solve(jac @ jac.T + damping, err)
+        except np.linalg.LinAlgError:  # a goal so far off (1e308 m) that the error and Jacobian are not finite
+            break
+        if not np.all(np.isfinite(dq)):
+            break
         biggest = float(np.abs(dq).max())
         if biggest > config.max_step_rad:
             dq *= config.max_step_rad / biggest

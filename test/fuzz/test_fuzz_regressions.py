@@ -130,3 +130,17 @@ def test_a_checkpoint_path_with_no_file_name_is_refused_as_a_checkpoint_error():
     for stem in (".", "/", ""):
         with pytest.raises(CheckpointError, match="names no file|checkpoint file missing"):
             load_checkpoint(stem)
+
+
+@pytest.mark.parametrize("position", [[-1e308, 0.0, -1e7], [1e308, 1e308, 1e308], [0.3, 1e200, 0.4]])
+def test_ik_towards_an_absurd_goal_gives_up_instead_of_raising(position):
+    """bench fuzz (ompl_planner.plan and plan_grasp, 10,000 inputs): a goal at x = -1e308 m made the IK's
+    error and Jacobian non-finite and numpy raised LinAlgError (singular matrix) out of the plan service."""
+    from latent_planner_ros.planning.goal import Goal
+    from latent_planner_ros.planning.ik import IkConfig, solve_ik
+    from latent_planner_ros.robot.limits import Q_READY
+    from latent_planner_ros.robot.panda import load_panda
+
+    with np.errstate(all="ignore"):
+        sol = solve_ik(load_panda(), Goal(np.array(position), np.eye(3), 0.01, 0.26), Q_READY, IkConfig())
+    assert not sol.converged and np.all(np.isfinite(sol.q))
