@@ -5,13 +5,25 @@ when it is received); it replaces the current one at that start time, from the s
 state is the first knot, so the command stays continuous); points already in the past at that time are dropped
 and a trajectory that has ended before it starts is refused. Between points it interpolates the way a JTC does:
 linearly with positions only, cubic with velocities, quintic with accelerations (scipy BPoly.from_derivatives).
-After the last point it holds that position at zero velocity.
+After the last point it holds that position at zero velocity. Unlike a bare JTC it refuses a trajectory that
+leaves the joint limits or exceeds the velocity or acceleration limits (its given values, or the mean velocity
+between two points), with the joint and time: such a trajectory would trip a real arm's reflexes, and values
+far beyond them made MuJoCo reset the simulation.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.interpolate import BPoly
+
+from latent_planner_ros.robot.limits import A_MAX, JOINT_NAMES, Q_MAX, Q_MIN, V_MAX
+
+POSITION_TOL_RAD = 0.05
+"""how far [rad] a point may lie outside the joint limits (a segment's stopping tail near a limit)"""
+RATE_TOL = 1.1
+"""factor on the velocity and acceleration limits a trajectory may reach"""
+INTERPOLATION_SAMPLES = 4
+"""positions checked between each two points of a trajectory with velocities"""
 
 
 class TrajectoryFollower:
@@ -58,6 +70,9 @@ class TrajectoryFollower:
         derivs = [None if d is None else np.asarray(d, dtype=float) for d in (velocities, accelerations)]
         if any(d is not None and (d.shape != q.shape or not np.all(np.isfinite(d))) for d in derivs):
             return f"velocities and accelerations must be finite ({len(t)}, 7) arrays"
+        beyond = limit_violation(t, q, derivs[0], derivs[1])
+        if beyond:
+            return beyond
         start = now if stamp == 0 else float(stamp)
         if start + t[-1] < now:
             return f"trajectory ended {now - start - t[-1]:.3f} s ago"
@@ -109,3 +124,42 @@ class TrajectoryFollower:
         if self._pending is not None:
             return self._pending[0] + float(self._pending[1][-1])
         return float(self._active[1].x[-1]) if self._active is not None else -np.inf
+
+
+def limit_violation(
+    times: np.ndarray, q: np.ndarray, dq: np.ndarray | None = None, ddq: np.ndarray | None = None
+) -> str:
+    """'' when a trajectory keeps within the Panda's limits, else the first limit it breaks, naming joint and time.
+
+    Args:
+        times: (K,) [s], strictly increasing; q: (K, 7) [rad]; dq: (K, 7) [rad/s] or None; ddq: (K, 7) [rad/s^2]
+        or None. Positions may lie POSITION_TOL_RAD outside the joint limits, rates reach RATE_TOL x the limits.
+    """
+    checks = [
+        ("position", q, Q_MIN - POSITION_TOL_RAD, Q_MAX + POSITION_TOL_RAD, "rad", times),
+        ("velocity", dq, -RATE_TOL * V_MAX, RATE_TOL * V_MAX, "rad/s", times),
+        ("acceleration", ddq, -RATE_TOL * A_MAX, RATE_TOL * A_MAX, "rad/s^2", times),
+    ]
+    if len(times) > 1:  # the mean velocity between consecutive points, the positions between them
+        mean = np.diff(q, axis=0) / np.diff(times)[:, None]
+        checks.append(("mean velocity", mean, -RATE_TOL * V_MAX, RATE_TOL * V_MAX, "rad/s", times[1:]))
+        if dq is not None:  # a cubic or quintic between points may swing out of the limits
+            knots = np.stack([q, dq] + ([ddq] if ddq is not None else []), axis=1)  # (K, orders, 7)
+            fractions = np.linspace(0.0, 1.0, INTERPOLATION_SAMPLES + 2)[1:-1]
+            between = (times[:-1, None] + np.diff(times)[:, None] * fractions).ravel()
+            swing = np.stack([BPoly.from_derivatives(times, knots[:, :, j])(between) for j in range(7)], axis=1)
+            checks.append(
+                ("interpolated position", swing, Q_MIN - POSITION_TOL_RAD, Q_MAX + POSITION_TOL_RAD, "rad", between)
+            )
+    for what, values, low, high, unit, at in checks:
+        if values is None:
+            continue
+        bad = (values < low) | (values > high)
+        if bad.any():
+            k, j = np.argwhere(bad)[0]
+            limit = high[j] if values[k, j] > high[j] else low[j]
+            return (
+                f"{what} of {JOINT_NAMES[j]} at t={at[k]:.4g} s is {values[k, j]:.4g} {unit}, beyond its limit "
+                f"{limit:.4g} {unit}: trajectory refused"
+            )
+    return ""

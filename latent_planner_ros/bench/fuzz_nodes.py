@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections import deque
 from functools import partial
 
+import mujoco
 import numpy as np
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.srv import SetParameters
@@ -377,7 +378,7 @@ class SimFuzz(NodeFuzz):
         _, reason = refusal(joint_state_to_q, msg)
         unknown = sorted(set(msg.name) - set(JOINT_NAMES))
         _, logs = self.call(self.node._on_command, msg)
-        self.node.sim.step(5)
+        self._step()
         if unknown:
             return self.expect_reason(logs, "unknown joints", "joint_command")
         if reason:
@@ -387,13 +388,22 @@ class SimFuzz(NodeFuzz):
     def trajectory(self, msg) -> str:
         _, reason = refusal(trajectory_to_execution, msg)
         _, logs = self.call(self.node._on_trajectory, msg)
-        self.node.sim.step(5)
-        expect(bool(np.all(np.isfinite(self.node.sim.get_state().q))), "the simulated arm's state is not finite")
+        self._step()
         if reason:
             return self.expect_reason(logs, reason, "joint_trajectory")
         if self.node.sim.trajectory_running() or not logs:
             return ACCEPTED
         return self.expect_reason(logs, "joint_trajectory refused", "joint_trajectory")
+
+    def _step(self) -> None:
+        """Five physics steps on the command just given: the arm's state stays finite and MuJoCo never sees a
+        non-finite or huge actuator value (it would reset the simulation: the arm jumps to its start pose)."""
+        data = self.node.sim.data
+        bad_before = int(data.warning[mujoco.mjtWarning.mjWARN_BADCTRL].number)
+        self.node.sim.step(5)
+        expect(bool(np.all(np.isfinite(self.node.sim.get_state().q))), "the simulated arm's state is not finite")
+        bad = int(data.warning[mujoco.mjtWarning.mjWARN_BADCTRL].number) - bad_before
+        expect(bad == 0, "a command put a non-finite or huge value in MuJoCo's actuator controls (simulation reset)")
 
     def boundaries(self) -> tuple[Boundary, ...]:
         return (

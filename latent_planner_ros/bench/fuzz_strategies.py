@@ -286,8 +286,9 @@ def joint_trajectories(draw, valid: tuple[str, ...] = JOINT_NAMES) -> JointTraje
     """Trajectories near the ready pose with increasing times, or any sizes, values and times."""
     names = draw(joint_names(valid))
     n, k = len(names), draw(st.integers(0, 12))
-    t = np.cumsum(draw(st.lists(st.floats(0.01, 0.5), min_size=k, max_size=k))) if k else np.zeros(0)
-    plausible = draw(st.booleans())
+    plausible = draw(st.booleans())  # then within the Panda's limits: 0.3-0.6 s apart, 0.3 rad around the ready pose
+    spacing = st.floats(0.3, 0.6) if plausible else st.floats(0.01, 0.5)
+    t = np.cumsum(draw(st.lists(spacing, min_size=k, max_size=k))) if k else np.zeros(0)
     derivatives = draw(st.sampled_from(["none", "velocities", "both", "any"]))
     points = []
     for i in range(k):

@@ -1,6 +1,7 @@
 """The sim's two command sources: trajectories followed as a JointTrajectoryController does, position targets
 refused while a trajectory runs and taking over after its end."""
 
+import mujoco
 import numpy as np
 
 from latent_planner_ros.planning.motion_limits import MotionLimits
@@ -81,3 +82,17 @@ def test_segments_move_the_arm_smoothly_where_position_targets_jerk_it(make_sim)
         peaks[mode] = (np.abs(np.diff(velocities, axis=0)) / 0.01).max(axis=0)
     assert np.all(peaks["segments"] <= 1.25 * limits.a_max), peaks
     assert np.all(peaks["position"] > 2.0 * limits.a_max[1]), peaks
+
+
+def test_a_trajectory_beyond_the_limits_is_refused_and_the_arm_holds(make_sim):
+    """Finite velocities of 1e300 rad/s once reached MuJoCo's controls as NaN, and MuJoCo reset the simulation
+    (the arm jumped to its start pose); found by `bench fuzz` with the bad-control invariant."""
+    sim = make_sim("empty")
+    sim.step(100)
+    q_before = sim.get_state().q.copy()
+    reason = sim.set_trajectory(np.array([0.0, 0.5]), np.stack([q_before, q_before + 0.1]), np.full((2, 7), 1e300))
+    assert "velocity of panda_joint1" in reason and "beyond its limit" in reason
+    sim.step(100)
+    assert sim.data.warning[mujoco.mjtWarning.mjWARN_BADCTRL].number == 0
+    assert sim.source == POSITION
+    np.testing.assert_allclose(sim.get_state().q, q_before, atol=0.01)

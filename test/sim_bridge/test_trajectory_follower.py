@@ -5,8 +5,8 @@ import pytest
 
 from latent_planner_ros.planning.motion_limits import MotionLimits
 from latent_planner_ros.planning.trajectory_segment import segment_to_target
-from latent_planner_ros.robot.limits import Q_READY
-from sim_bridge.trajectory_follower import TrajectoryFollower
+from latent_planner_ros.robot.limits import Q_MAX, Q_READY
+from sim_bridge.trajectory_follower import TrajectoryFollower, limit_violation
 
 
 def test_holds_before_the_first_trajectory_and_after_the_end():
@@ -57,11 +57,38 @@ def test_segments_replacing_each_other_give_a_continuous_velocity():
         ({"times": [0.2, 0.1], "positions": np.zeros((2, 7))}, "strictly increasing"),
         ({"times": [0.1], "positions": np.full((1, 7), np.nan)}, "finite"),
         ({"times": [0.1], "positions": np.zeros((1, 6))}, "positions"),
-        ({"times": [0.1], "positions": np.zeros((1, 7)), "velocities": np.zeros((2, 7))}, "velocities"),
-        ({"times": [0.1], "positions": np.zeros((1, 7)), "stamp": 1.0, "now": 5.0}, "ended"),
+        ({"times": [0.1], "positions": Q_READY[None], "velocities": np.zeros((2, 7))}, "velocities"),
+        ({"times": [0.1], "positions": Q_READY[None], "stamp": 1.0, "now": 5.0}, "ended"),
+        # beyond the arm's limits: values like these made MuJoCo reset the simulation ("Nan, Inf or huge value")
+        ({"times": [0.5], "positions": (Q_READY + [5.0, 0, 0, 0, 0, 0, 0])[None]}, "position of panda_joint1"),
+        ({"times": [0.1, 0.2], "positions": [Q_READY, Q_READY + 1.0]}, "mean velocity"),
+        ({"times": [0.5], "positions": Q_READY[None], "velocities": np.full((1, 7), 1e300)}, "velocity of"),
+        (
+            {
+                "times": [0.5],
+                "positions": Q_READY[None],
+                "velocities": np.zeros((1, 7)),
+                "accelerations": np.full((1, 7), 50.0),
+            },
+            "acceleration of",
+        ),
+        (
+            {"times": [0.1, 1e6], "positions": [Q_READY, Q_READY], "velocities": np.ones((2, 7))},
+            "interpolated position",
+        ),
     ],
 )
 def test_bad_trajectories_are_refused_and_the_current_one_continues(kwargs, match):
     f = TrajectoryFollower(Q_READY)
     assert match in f.set_trajectory(**kwargs)
     np.testing.assert_array_equal(f.sample(6.0)[0], Q_READY)
+
+
+def test_a_trajectory_within_the_limits_is_accepted_at_the_limits_themselves():
+    f = TrajectoryFollower(Q_READY)
+    t = np.array([0.0, 1.0])
+    q = np.stack([Q_READY, Q_READY])
+    q[:, 0] = Q_MAX[0]  # a joint held at its limit
+    v = np.zeros((2, 7))
+    assert f.set_trajectory(t, q, v, np.zeros((2, 7))) == ""
+    assert "beyond its limit" in limit_violation(t, q + 0.1, v)
