@@ -113,8 +113,8 @@ class ForeignLatentBackend(BackendDefaults):
     def mode(self) -> str:
         return self.inner.mode
 
-    def set_cloud(self, cloud: np.ndarray) -> None:
-        self.inner.set_cloud(cloud)
+    def set_cloud(self, cloud: np.ndarray, views: int = 1) -> None:
+        self.inner.set_cloud(cloud, views)
 
     def geometric_only(self):
         return self.inner.geometric_only()

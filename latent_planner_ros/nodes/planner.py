@@ -158,7 +158,7 @@ class PlannerNode(Node):
         self._cloud_time = 0.0
         self.fusion = CloudFusion(self.config.cloud_topics, self.frames, self.config.cloud_max_age_s)
         self._cloud_sources = "none"
-        self._last_cloud = None  # (points (N, 3), receipt time [s]) of the last converted cloud
+        self._last_cloud = None  # (points (N, 3), receipt time [s], camera topics fused) of the last converted cloud
         self._cloud_points = (0, 0)  # points received, points used (finite, downsampled) of the last cloud
         self._cylinders: dict = {}  # {(ns, id): (x, y, h, r) [m]} of the accepted obstacle markers
         self._obstacle_notes = ""
@@ -376,19 +376,20 @@ class PlannerNode(Node):
         near = fused.points[np.all(np.abs(fused.points) <= FAR_M, axis=1)]
         cloud, _ = limit_points(near, self.config.cloud_max_points, self.config.cloud_voxel_m)
         self._cloud_points = (sum(self.fusion.received[t] for t in fused.sources), len(cloud))
-        self._last_cloud = (cloud, self._cloud_time)
-        self._apply_cloud(cloud, self._cloud_time)
+        self._last_cloud = (cloud, self._cloud_time, max(1, len(fused.sources)))
+        self._apply_cloud(*self._last_cloud)
 
-    def _apply_cloud(self, cloud, received: float) -> None:
-        """Hand a cloud (N, 3) [m] received at `received` [s] to the AMP-LS backend and the goal checks."""
+    def _apply_cloud(self, cloud, received: float, views: int = 1) -> None:
+        """Hand a cloud (N, 3) [m] received at `received` [s], fused from `views` camera topics, to the AMP-LS
+        backend and the goal checks."""
         self.modes.lspp.set_cloud(cloud)  # LSPP plans around the cylinders; the cloud only checks goals
         controller = self.modes.amp_ls
         backend = controller.planner.backend
-        obstacles = controller.set_cloud(cloud, received)  # at a grasp goal without the target's points
+        obstacles = controller.set_cloud(cloud, received, views)  # at a grasp goal without the target's points
         if backend.name in CLOUD_SCENE_BACKENDS:
             controller.set_scene(obstacles, received)
             return
-        backend.set_cloud(obstacles)  # learned: the raw cloud feeds the hard check of each step
+        backend.set_cloud(obstacles, views)  # learned: the raw cloud feeds the hard check of each step
 
     @_locked
     def _on_embedding(self, msg: PointCloud2) -> None:
@@ -548,7 +549,7 @@ class PlannerNode(Node):
                 scene = cloud
             cfg = self.config
             spec = self.grasp_target.spec(cfg.grasp_approach_m, cfg.grasp_target_radius_m) if grasp else None
-            return "", (PlanRequest(q, goal, scene, cloud, 0, spec), planner, lspp)
+            return "", (PlanRequest(q, goal, scene, cloud, 0, spec, controller.cloud_views), planner, lspp)
 
     def _plan(
         self, request: GetPlan.Request, response: GetPlan.Response, grasp: bool = False

@@ -171,6 +171,7 @@ class ClosedLoopController:
         self.grasp: GraspSpec | None = None  # set when the goal is a grasp (see set_goal)
         self.grasp_note = ""  # for the status: the target split of the newest cloud at a grasp goal
         self._raw_cloud: np.ndarray | None = None  # the newest cloud as received (the target not set aside)
+        self.cloud_views = 1  # the cameras it was fused from
         self._q: np.ndarray | None = None
         self._q_time = -np.inf
         self._scene: Any = None
@@ -205,12 +206,14 @@ class ClosedLoopController:
         if cloud is not None:
             self.set_cloud(cloud, now)
 
-    def set_cloud(self, cloud: np.ndarray, now: float | None = None) -> np.ndarray:
-        """The latest raw cloud (N, 3) [m] (finite points), used to refuse goals inside observed obstacles and,
-        with its time now [s], to notice obstacles approaching the arm (evade_margin_m). Returns the obstacles
-        (M, 3) [m]: the cloud, or at a grasp goal the cloud without the target's points, which is what the hard
-        check of every command must be given (the caller hands it to the backend)."""
+    def set_cloud(self, cloud: np.ndarray, now: float | None = None, views: int = 1) -> np.ndarray:
+        """The latest raw cloud (N, 3) [m] (finite points), fused from `views` cameras, used to refuse goals inside
+        observed obstacles and, with its time now [s], to notice obstacles approaching the arm (evade_margin_m);
+        `views` goes with the background plans (the learned backend's network plans from one camera only).
+        Returns the obstacles (M, 3) [m]: the cloud, or at a grasp goal the cloud without the target's points, which
+        is what the hard check of every command must be given (the caller hands it to the backend)."""
         self._raw_cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
+        self.cloud_views = max(1, int(views))
         self._cloud = self._obstacles(self._raw_cloud)
         if now is not None and self._evader is not None:
             self._evader.add_cloud(self._cloud, now)
@@ -418,7 +421,7 @@ class ClosedLoopController:
         scene = self._scene if use_scene else None
         speed = float(np.linalg.norm(self.goal_velocity()))
         cloud = self._raw_cloud if self.grasp is not None else self._cloud  # plan_grasp sets the target aside itself
-        f.update(now, q, goal, speed, now - self._best_time, scene, cloud, self.grasp)
+        f.update(now, q, goal, speed, now - self._best_time, scene, cloud, self.grasp, self.cloud_views)
         t0 = time.perf_counter()
         target = f.command(q, goal)
         if target is not None:

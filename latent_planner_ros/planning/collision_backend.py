@@ -34,9 +34,10 @@ class CollisionBackend(Protocol):
         backend only)."""
         ...
 
-    def set_cloud(self, cloud: np.ndarray) -> None:
-        """The raw cloud (N, 3) [m] of a scene given as an embedding: the learned backend's hard check also
-        tests it geometrically; a no-op where set_scene already takes the cloud."""
+    def set_cloud(self, cloud: np.ndarray, views: int = 1) -> None:
+        """The raw cloud (N, 3) [m] of a scene given as an embedding, fused from `views` cameras: the learned
+        backend's hard check also tests it geometrically (and the views decide whether the network plans); a
+        no-op where set_scene already takes the cloud."""
         ...
 
     def p_collision(self, q: torch.Tensor, z: torch.Tensor, frames: torch.Tensor | None = None) -> torch.Tensor:
@@ -67,7 +68,7 @@ class BackendDefaults:
     def mode(self) -> str:
         return self.name
 
-    def set_cloud(self, cloud: np.ndarray) -> None:
+    def set_cloud(self, cloud: np.ndarray, views: int = 1) -> None:
         """No-op: this backend's scene is set by set_scene alone."""
 
     def geometric_only(self) -> AbstractContextManager:

@@ -26,6 +26,10 @@ from latent_planner_ros.planning.network_domain import share_outside
 from latent_planner_ros.robot.panda import LINK_FRAMES
 from latent_planner_ros.robot.torch_fk import TorchFK
 
+MAX_VIEWS = 1
+"""default `max_views`: the shipped network learned clouds of one camera (and its visibility channels their
+shadows); clouds fused from several cameras were the workcells', where it planned slower than the geometric
+backend (docs/benchmark.md, "The network's domain: one camera")"""
 DOMAIN_SHARE = 0.2
 """default `domain_share`: on the shipped sets' clouds, no tabletop scene has more than 0.18 of its occupied
 voxels outside the shipped network's box, and 48 of the first 60 workcell scenes have more than 0.2"""
@@ -45,6 +49,8 @@ class LearnedBackend(BackendDefaults):
         domain_share: a scene with more than this share of its occupied voxels outside the network's box
             (planning/network_domain.py: a workcell, not the tabletop it learned) is planned with the geometric
             backend instead, and `mode` says so; 1.0 = the network always.
+        max_views: a cloud fused from more cameras than this is planned with the geometric backend too (the
+            network learned what one camera sees); 0 = any number.
     """
 
     name = "learned"
@@ -57,10 +63,12 @@ class LearnedBackend(BackendDefaults):
         threshold: float = CHECK_THRESHOLD,
         geometric_check: bool = True,
         domain_share: float = DOMAIN_SHARE,
+        max_views: int = MAX_VIEWS,
     ):
         self.predictor = predictor
         self.threshold = float(threshold)
         self.domain_share = float(domain_share)
+        self.max_views = int(max_views)
         self.mode = "learned"
         self.geometric = GeometricBackend() if geometric_check else None
         self._fallback: GeometricBackend | None = None  # the geometric backend of scenes beyond the box
@@ -103,7 +111,7 @@ class LearnedBackend(BackendDefaults):
             else:
                 raise ValueError(f"origin: expected shape (3,) or ({len(cloud)}, 3), got {origin.shape}")
         cloud = cloud[keep]
-        if self._beyond_box(cloud):
+        if self._beyond_box(cloud, count_views(origin)):
             return
         enc = self.predictor.net.config.encoder  # the network sees its workspace box, as in training
         inside = inside_bounds(cloud, enc.bounds_min, enc.bounds_max)
@@ -113,10 +121,11 @@ class LearnedBackend(BackendDefaults):
         if self.geometric is not None:  # set_cloud without counting the share outside the box again
             self.geometric.set_check_cloud(cloud)
 
-    def set_cloud(self, cloud: np.ndarray) -> None:
-        """The raw cloud (N, 3) [m] for the geometric part of the hard check (and the choice of `mode`: with an
-        embedding from the scene_encoder node, this is where the planner sees how far the scene reaches)."""
-        if self._beyond_box(cloud):
+    def set_cloud(self, cloud: np.ndarray, views: int = 1) -> None:
+        """The raw cloud (N, 3) [m] for the geometric part of the hard check, fused from `views` cameras (and the
+        choice of `mode`: with an embedding from the scene_encoder node, this is where the planner sees how far
+        the scene reaches and from how many cameras)."""
+        if self._beyond_box(cloud, views):
             return
         if self.geometric is not None:
             self.geometric.set_check_cloud(cloud)
@@ -147,14 +156,17 @@ class LearnedBackend(BackendDefaults):
         self._fallback.set_scene(cloud)
         self._fallback_cloud = cloud
 
-    def _beyond_box(self, cloud: np.ndarray) -> bool:
-        """Set `mode` for cloud (N, 3) [m]; in geometric mode, give the cloud to the geometric backend."""
+    def _beyond_box(self, cloud: np.ndarray, views: int = 1) -> bool:
+        """Set `mode` for cloud (N, 3) [m] seen by `views` cameras; in geometric mode, give the cloud to the
+        geometric backend."""
         enc = self.predictor.net.config.encoder
         if self._forced:
             self._use_fallback(cloud)
             return True
         self.mode = "learned"
-        if self.domain_share >= 1.0 or share_outside(cloud, enc.bounds_min, enc.bounds_max) <= self.domain_share:
+        in_views = self.max_views <= 0 or views <= self.max_views
+        inside = self.domain_share >= 1.0 or share_outside(cloud, enc.bounds_min, enc.bounds_max) <= self.domain_share
+        if in_views and inside:
             return False
         self.mode = "geometric"
         self._fallback = self._fallback or GeometricBackend()
@@ -211,3 +223,16 @@ class LearnedBackend(BackendDefaults):
             p = torch.sigmoid(net.combine(logits)).numpy()
         hits[todo] = p >= self.threshold
         return hits
+
+
+def count_views(origin: np.ndarray | None) -> int:
+    """How many cameras a cloud was fused from: the distinct finite rows of its per-point origins (N, 3) [m]
+    (views come one after the other, so the rows that start a run are enough); 1 for one origin (3,) or None."""
+    if origin is None or origin.ndim != 2 or len(origin) == 0:
+        return 1
+    rows = origin[np.isfinite(origin).all(axis=1)]
+    if len(rows) == 0:
+        return 1
+    starts = np.ones(len(rows), dtype=bool)
+    starts[1:] = (rows[1:] != rows[:-1]).any(axis=1)
+    return max(1, len(np.unique(rows[starts], axis=0)))

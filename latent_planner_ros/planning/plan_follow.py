@@ -82,13 +82,22 @@ class PlanFollower:
         self._stream, self._plan_goal = None, None
 
     def update(
-        self, now: float, q: np.ndarray, goal: Goal, goal_speed: float, stalled_s: float, scene, cloud, grasp=None
+        self,
+        now: float,
+        q: np.ndarray,
+        goal: Goal,
+        goal_speed: float,
+        stalled_s: float,
+        scene,
+        cloud,
+        grasp=None,
+        views: int = 1,
     ):
         """Take up a finished plan and request a new one when it is worth it; once per tick.
 
         Args:
             now: time [s]; q: measured state (7,) [rad]; goal: the goal to plan for; goal_speed: its speed [m/s];
-            stalled_s: time [s] since the loop last made progress; scene, cloud, grasp: as in PlanRequest.
+            stalled_s: time [s] since the loop last made progress; scene, cloud, grasp, views: as in PlanRequest.
         """
         outcome = self.runner.poll(now)
         if outcome is not None:
@@ -104,7 +113,7 @@ class PlanFollower:
             self._requested, self._requested_at, self._answered = goal.position.copy(), now, False
             self._requested_grasp = grasp
             self.plans["requested"] += 1
-            self.runner.submit(PlanRequest(q.copy(), goal, scene, cloud, self._ident, grasp), now)
+            self.runner.submit(PlanRequest(q.copy(), goal, scene, cloud, self._ident, grasp, views), now)
 
     def _take(self, outcome: PlanOutcome, goal: Goal) -> None:
         if outcome.request.ident != self._ident:

@@ -38,6 +38,8 @@ class PlanRequest:
     cloud: np.ndarray | None
     ident: int
     grasp: GraspSpec | None = None
+    views: int = 1
+    """cameras the cloud was fused from (the learned backend plans with its network from one only)"""
 
 
 @dataclass(frozen=True)
@@ -72,7 +74,7 @@ def planning_function(planner: Any, lock: threading.Lock | None = None, reachabi
                 return plan_grasp_spec(planner, request.q, request.goal, np.asarray(cloud), request.grasp)
             backend = getattr(planner, "backend", None)
             if request.cloud is not None and backend is not None:
-                backend.set_cloud(request.cloud)
+                backend.set_cloud(request.cloud, request.views)
             return planner.plan(request.q, request.goal, request.scene)
 
     return plan
