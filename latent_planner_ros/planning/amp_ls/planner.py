@@ -299,15 +299,16 @@ class AmpLs:
         if cfg.use_collision:
             with self.clock.section("scene"):
                 self.backend.set_scene(np.zeros((0, 3)) if cloud is None else cloud, origin)
-        # a start refused by the (conservative) hard check: let the arm move out of it (checks.escape_rad)
-        self.segments.escape_from = None
-        start_refused = not self.segments.state_free(start_q)
-        if start_refused and cfg.checks.escape_rad > 0:
-            self.segments.escape_from = start_q
-        try:
-            return self._search_and_finish(start_q, goal, t0, timeout_s, start_refused)
-        finally:
+        with self.segments.cached():  # one scene for the whole plan: each state's answer is kept
+            # a start refused by the (conservative) hard check: let the arm move out of it (checks.escape_rad)
             self.segments.escape_from = None
+            start_refused = not self.segments.state_free(start_q)
+            if start_refused and cfg.checks.escape_rad > 0:
+                self.segments.escape_from = start_q
+            try:
+                return self._search_and_finish(start_q, goal, t0, timeout_s, start_refused)
+            finally:
+                self.segments.escape_from = None
 
     def _search_and_finish(
         self, start_q: np.ndarray, goal: Goal, t0: float, timeout_s: float, start_refused: bool
