@@ -289,7 +289,25 @@ class ClosedLoopController:
         self._goal_track.append((now, np.array(goal.position, dtype=float)))
         while len(self._goal_track) > 2 and now - self._goal_track[1][0] >= GOAL_VELOCITY_WINDOW_S:
             self._goal_track.popleft()
+        self._drop_before_reversal()
         return True, "goal accepted"
+
+    def _drop_before_reversal(self) -> None:
+        """A goal that turned back (a belt's bounce) drops the goals before the turn from the velocity estimate:
+        averaged over the whole window, the estimate (and the lead with it) pointed the old way for up to
+        GOAL_VELOCITY_WINDOW_S after the turn. A turn: the newest goal moved against the velocity of the goals
+        before it, both faster than STILL_GOAL_MPS (so a still goal's noise is no turn)."""
+        track = self._goal_track
+        if len(track) < 3:
+            return
+        (t0, p0), (t1, p1), (t2, p2) = track[0], track[-2], track[-1]
+        if t1 - t0 < 0.05 or t2 <= t1:
+            return
+        before, newest = (p1 - p0) / (t1 - t0), (p2 - p1) / (t2 - t1)
+        slow = min(np.linalg.norm(before), np.linalg.norm(newest)) <= STILL_GOAL_MPS
+        if not slow and float(np.dot(before, newest)) < 0.0:
+            while len(track) > 2:
+                track.popleft()
 
     def goal_velocity(self) -> np.ndarray:
         """The current goal's velocity (3,) [m/s] over the goals of the last GOAL_VELOCITY_WINDOW_S (zeros

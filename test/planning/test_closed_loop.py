@@ -91,6 +91,23 @@ def test_a_tracked_moving_goal_does_not_trip_the_watchdog(shipped_vae):
     assert "failed" not in states and "reached" in states[-20:], states
 
 
+def test_a_goal_that_turns_back_turns_its_velocity_estimate_at_once(shipped_vae):
+    base = _goal([0.3, 0, 0, 0, 0, 0, 0])
+    c = _controller(shipped_vae, goal_lead_s=0.3, goal_lead_max_m=0.1)
+    v = np.array([0.0, 0.15, 0.0])  # [m/s], a fast belt that bounces at t = 0.8 s
+    for k in range(12):
+        t = 0.08 * k
+        y = v * t if t <= 0.8 else v * (1.6 - t)
+        c.set_goal(Goal(base.position + y, base.rotation), t)
+    np.testing.assert_allclose(c.goal_velocity(), -v, atol=1e-9)  # one goal after the turn, not 0.3 s later
+    assert c.chased_goal().position[1] < c.goal.position[1]
+    still = _controller(shipped_vae, goal_lead_s=0.3, goal_lead_max_m=0.1)
+    rng = np.random.default_rng(0)
+    for k in range(8):  # a still goal's jitter of 0.5 mm is no turn: the window keeps its goals
+        still.set_goal(Goal(base.position + rng.normal(0.0, 0.0005, 3), base.rotation), 0.08 * k)
+    assert len(still._goal_track) >= 4
+
+
 def test_goal_lead_chases_where_a_moving_goal_will_be(shipped_vae):
     base = _goal([0.3, 0, 0, 0, 0, 0, 0])
     c = _controller(shipped_vae, goal_lead_s=0.5, goal_lead_max_m=0.1)
