@@ -123,8 +123,8 @@ def markdown(res: dict) -> str:
         f"{_fmt(res.get('command_gap_max_s'), '.2f')} s) |",
         "",
         "| # | seed | speed [m/s] | mode | target half edge [m] | reached [s] | tracked | contacts | "
-        "min dist [cm] | tick p99 [ms] | missed | commands from |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "min dist [cm] | tick p99 [ms] | missed | commands from | servo declined (top reasons) |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for i, t in enumerate(res["per_trial"]):
         d = t["drawn"]
@@ -132,7 +132,8 @@ def markdown(res: dict) -> str:
             f"| {i} | {t['seed']} | {d['speed']:+.3f} | {d['mode']} | {d['target_half_extent']:.3f} | "
             f"{_fmt(t['time_to_reach_s'], '.1f')} | {'yes' if t['tracked'] else 'no'} | {t['collisions']} | "
             f"{_cm(t['min_obstacle_distance_m'])} | "
-            f"{_fmt(t['tick_ms_p99'], '.0f')} | {t['missed_ticks']} | {_sources(t.get('command_sources', {}))} |"
+            f"{_fmt(t['tick_ms_p99'], '.0f')} | {t['missed_ticks']} | {_sources(t.get('command_sources', {}))} | "
+            f"{_sources(dict(list(t.get('servo_notes', {}).items())[:2]))} |"
         )
     return "\n".join(lines) + "\n"
 

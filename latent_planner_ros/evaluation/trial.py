@@ -13,6 +13,8 @@ then stays within for ``hold_s``, with no contact between the arm and the scene 
 
 from __future__ import annotations
 
+import re
+from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -54,6 +56,7 @@ class TrialLog:
         status_t, status_state, status_message, status_source, tick_ms: (S,) times, planner states, status
             messages, command sources ("local", "servo", "plan", ...; "" where the status had none) and tick
             compute times [ms] (NaN where the status had none) from ``planner/status``.
+        status_servo_note: (S,) why the IK servo declined that tick (status ``servo_note``; "" where it did not).
         command_t: (C,) stamps of the planner's ``joint_command`` messages.
         command_period_s: [s] the planner's control period.
         scenario_start_s: trial time at which the scenario was (re)started (scenario time = t - this).
@@ -73,6 +76,7 @@ class TrialLog:
     status_state: tuple[str, ...] = ()
     status_message: tuple[str, ...] = ()
     status_source: tuple[str, ...] = ()
+    status_servo_note: tuple[str, ...] = ()
     tick_ms: np.ndarray = field(default_factory=_array)
     command_t: np.ndarray = field(default_factory=_array)
     command_period_s: float = 0.1
@@ -223,8 +227,9 @@ def trial_metrics(log: TrialLog, rule: SuccessRule | None = None, track: Trackin
     median_pos_err_after_reach_m, median_ori_err_after_reach_deg, min_obstacle_distance_m, collisions
     (contacts begun), contact_s, tick_ms_p50, tick_ms_p99, tick_ms_max, ticks_reported, commands,
     missed_ticks, command_gap_max_s, first_tick_ms, planner_states (state -> fraction of status messages),
-    command_sources (status command_source -> fraction of the status messages that name one),
-    planner_failures (distinct status messages of the "failed" state), duration_s, rule.
+    command_sources (status command_source -> fraction of the status messages that name one), servo_notes (why
+    the IK servo declined, its figures replaced by '#' -> fraction of all status messages), planner_failures
+    (distinct status messages of the "failed" state), duration_s, rule.
     """
     rule = rule or SuccessRule()
     tr = track if track is not None else tracking(log, rule)
@@ -266,6 +271,7 @@ def trial_metrics(log: TrialLog, rule: SuccessRule | None = None, track: Trackin
         "first_tick_ms": _opt(ticks[0]) if len(ticks) else None,
         "planner_states": {str(s): float(c / counts.sum()) for s, c in zip(states, counts, strict=True)},
         "command_sources": {str(s): float(c / n_source.sum()) for s, c in zip(sources, n_source, strict=True)},
+        "servo_notes": servo_note_shares(log.status_servo_note),
         "planner_failures": sorted(
             {m for s, m in zip(log.status_state, log.status_message, strict=False) if s == "failed"}
         ),
@@ -345,3 +351,10 @@ def plot_tracking(tr: Tracking, metrics: dict | None = None, title: str = ""):
         fig.suptitle(title)
     fig.tight_layout()
     return fig
+
+
+def servo_note_shares(notes: tuple[str, ...]) -> dict[str, float]:
+    """{kind of note: fraction of the S status messages} of why the IK servo declined, a note's figures replaced
+    by '#' ("3.2 cm clearance" -> "# cm clearance"); {} without status messages."""
+    kinds = Counter(re.sub(r"\d+(\.\d+)?", "#", n) for n in notes if n)
+    return {k: c / len(notes) for k, c in kinds.most_common()} if notes else {}

@@ -179,3 +179,10 @@ def test_an_empty_trial_has_undefined_figures_not_errors():
 def test_command_sources_are_the_shares_of_the_statuses_that_name_one():
     log = TrialLog(duration_s=1.0, status_source=("local", "", "servo", "servo", "plan"))
     assert trial_metrics(log)["command_sources"] == {"local": 0.25, "plan": 0.25, "servo": 0.5}
+
+
+def test_servo_notes_are_counted_by_kind_over_all_statuses():
+    notes = ("3.2 cm clearance", "", "4.9 cm clearance", "12 cm from the goal")
+    m = trial_metrics(TrialLog(duration_s=1.0, status_servo_note=notes))
+    assert m["servo_notes"] == {"# cm clearance": 0.5, "# cm from the goal": 0.25}
+    assert trial_metrics(TrialLog(duration_s=1.0))["servo_notes"] == {}

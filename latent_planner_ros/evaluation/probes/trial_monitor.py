@@ -161,7 +161,14 @@ class TrialMonitor(Node):
                 self.live.source = values.get("command_source", "")
                 if self._series is not None:
                     self._series.status.append(
-                        (_seconds(msg.header.stamp), state, tick_ms, status.message, self.live.source)
+                        (
+                            _seconds(msg.header.stamp),
+                            state,
+                            tick_ms,
+                            status.message,
+                            self.live.source,
+                            values.get("servo_note", ""),
+                        )
                     )
 
     # -- recording (any thread) ----------------------------------------------------------------------
@@ -207,6 +214,7 @@ class TrialMonitor(Node):
             status_state=tuple(r[1] for r in status),
             status_message=tuple(r[3] for r in status),
             status_source=tuple(r[4] for r in status),
+            status_servo_note=tuple(r[5] for r in status),
             tick_ms=np.array([r[2] for r in status], dtype=float),
             command_t=commands,
             command_period_s=command_period_s,
