@@ -29,8 +29,6 @@ GOAL_VELOCITY_WINDOW_S = 0.3
 """[s] a moving goal's velocity is estimated from the goals received over this long (see goal_lead_s)"""
 SERVO_STEP_M = 0.1
 """[m] the servo's IK target lies at most this far from the TCP, on the straight line to the goal"""
-SERVO_LOOKAHEAD_PERIODS = 2.0
-"""control periods over which an approaching cloud must leave the servo's command servo_clearance_m"""
 GOAL_JUMP_M = 0.05
 """[m] a goal farther than this from the previous one is a new goal (watchdog and velocity estimate restart)"""
 
@@ -101,12 +99,10 @@ class ClosedLoopConfig:
     servo_max_rad: float = 0.5
     """[rad] the largest joint change an IK servo target may ask for (a larger one is a different IK branch)"""
     servo_clearance_m: float = 0.05
-    """[m] an IK servo command must keep the arm's spheres at least this far from the newest observed cloud, also
-    after SERVO_LOOKAHEAD_PERIODS control periods of a cloud approaching the commanded configuration at
-    evade_approach_mps or faster (the servo goes straight for the goal, without the latent cost's margin: near
-    obstacles, which may be moving and seen a camera period ago, the latent steps decide). Until 2026-12-07 the
-    approach counted within twice this of the arm as it stood, which stopped the servo beside an obstacle moving
-    with the goal on the belt"""
+    """[m] an IK servo command must keep the arm's spheres at least this far from the newest observed cloud, and
+    twice this from a cloud approaching the arm at evade_approach_mps or faster (the servo goes straight for the
+    goal, without the latent cost's margin: near obstacles, which may be moving and seen a camera period ago, the
+    latent steps decide)"""
 
     def __post_init__(self) -> None:
         positive = ("rate_hz", "stale_joint_states_s", "stale_scene_s", "no_progress_s", "progress_m", "reach_m")
@@ -513,12 +509,12 @@ class ClosedLoopController:
             self.planner.backend.set_scene(self._scene)
             self._checked_scene = self._scene
         if self._evader is not None:
-            least, speed = self._evader.threat(command)  # the cloud's approach to where the command takes the arm
+            least = self._evader.least_clearance(command)
             if least < cfg.servo_clearance_m:
                 return f"{least * 100:.1f} cm clearance"
-            ahead = least - speed * SERVO_LOOKAHEAD_PERIODS / cfg.rate_hz  # an obstacle coming: the latent steps decide
-            if speed >= cfg.evade_approach_mps and ahead < cfg.servo_clearance_m:
-                return f"an obstacle approaches at {speed * 100:.0f} cm/s, {least * 100:.1f} cm away"
+            clearance, speed = self._evader.threat(q)  # an obstacle coming at the arm: the latent steps decide
+            if speed >= cfg.evade_approach_mps and clearance < 2.0 * cfg.servo_clearance_m:
+                return f"an obstacle approaches at {speed * 100:.0f} cm/s, {clearance * 100:.1f} cm away"
         if not self.planner.segment_free(q, command):
             return "the hard check refuses the segment"
         self.planner.reset()  # the next latent step re-encodes wherever the servo left the arm
