@@ -27,8 +27,6 @@ OK, WARN, ERROR = 0, 1, 2
 
 GOAL_VELOCITY_WINDOW_S = 0.3
 """[s] a moving goal's velocity is estimated from the goals received over this long (see goal_lead_s)"""
-SERVO_STEP_M = 0.1
-"""[m] the servo's IK target lies at most this far from the TCP, on the straight line to the goal"""
 GOAL_JUMP_M = 0.05
 """[m] a goal farther than this from the previous one is a new goal (watchdog and velocity estimate restart)"""
 
@@ -495,12 +493,11 @@ class ClosedLoopController:
         _, pos_err, _ = self.planner.arm_at_goal(q, goal)
         if pos_err > cfg.servo_radius_m:
             return f"{pos_err * 100:.0f} cm from the goal"
-        waypoint = self._servo_waypoint(q, goal, pos_err)
-        sol = solve_ik(self.planner.panda, waypoint, q, SERVO_IK)
+        sol = solve_ik(self.planner.panda, goal, q, SERVO_IK)
         delta = sol.q - q
         if float(np.abs(delta).max()) > cfg.servo_max_rad:
             return f"IK asks {float(np.abs(delta).max()):.2f} rad of a joint"
-        if sol.pos_err >= min(pos_err, SERVO_STEP_M):
+        if sol.pos_err >= pos_err:
             return "IK makes no progress"
         limit = self.planner.config.speed_scale * V_MAX / cfg.rate_hz
         scale = min(1.0, float(np.min(limit / np.maximum(np.abs(delta), 1e-12))))
@@ -531,16 +528,6 @@ class ClosedLoopController:
         if evasion is not None:
             return evasion
         return TickOutcome(command, "reached" if reached else "tracking", "servoing by IK", OK, values)
-
-    def _servo_waypoint(self, q: np.ndarray, goal: Goal, pos_err: float) -> Goal:
-        """The servo's IK target: the goal, or when the TCP of q (7,) [rad] is more than SERVO_STEP_M from it
-        (pos_err [m]), the point that far along the straight line to it, with the goal's orientation (a far goal's
-        whole IK solution may lie on another branch, more than servo_max_rad of a joint away)."""
-        if pos_err <= SERVO_STEP_M:
-            return goal
-        tcp = self.planner.panda.fk(q).translation
-        towards = np.asarray(goal.position, dtype=float) - tcp
-        return replace(goal, position=tcp + towards * (SERVO_STEP_M / pos_err))
 
     def _grasp_hold(self, now: float, hold: np.ndarray) -> TickOutcome:
         """The tick at a grasp goal without a path to follow: hold (a grasp is approached along background plans

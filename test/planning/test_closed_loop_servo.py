@@ -4,10 +4,9 @@ the velocity limit, and never commands a segment the hard check refuses (a laten
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from latent_planner_ros.planning.amp_ls import AmpLs, AmpLsConfig
-from latent_planner_ros.planning.closed_loop import SERVO_STEP_M, ClosedLoopConfig, ClosedLoopController
+from latent_planner_ros.planning.closed_loop import ClosedLoopConfig, ClosedLoopController
 from latent_planner_ros.planning.evasion import Evader
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
 from latent_planner_ros.planning.goal import Goal
@@ -135,30 +134,3 @@ def test_the_servo_yields_to_an_obstacle_coming_at_the_arm(shipped_vae):
         if source == "servo" and k + 1 < len(clouds):
             watch.add_cloud(clouds[k + 1], 0.0)
             assert watch.least_clearance(q) >= 0.05, k
-
-
-def test_a_far_goal_is_servoed_through_waypoints_on_the_straight_line(shipped_vae):
-    """The servo's IK target lies at most SERVO_STEP_M from the TCP on the line to the goal: a goal 30 cm away,
-    whose whole IK solution asks more than servo_max_rad of a joint, is approached by the servo, not left to the
-    latent steps."""
-    planner = AmpLs(shipped_vae, GeometricBackend(), AmpLsConfig(collision_backend="geometric"))
-    c = ClosedLoopController(planner, ClosedLoopConfig(servo_radius_m=0.4, goal_lead_s=0.0))
-    panda = load_panda()
-    tcp = panda.fk(Q_READY).translation
-    far = Goal(tcp + np.array([0.25, 0.1, -0.1]), DOWN)
-    waypoint = c._servo_waypoint(Q_READY, far, float(np.linalg.norm(far.position - tcp)))
-    assert np.linalg.norm(waypoint.position - tcp) == pytest.approx(SERVO_STEP_M)
-    direction = (far.position - tcp) / np.linalg.norm(far.position - tcp)
-    np.testing.assert_allclose((waypoint.position - tcp) / SERVO_STEP_M, direction, atol=1e-9)
-    near = Goal(tcp + np.array([0.03, 0.0, 0.0]), DOWN)
-    assert c._servo_waypoint(Q_READY, near, 0.03) is near
-    q, sources = Q_READY.copy(), []
-    for k in range(30):  # the far goal moves at 5 cm/s (the servo acts on moving goals)
-        now = 0.1 * k
-        c.set_goal(Goal(far.position + np.array([0.0, 0.05 * now, 0.0]), DOWN), now)
-        c.set_joint_state(q, now)
-        c.set_scene(np.zeros((0, 3)), now)
-        out = c.tick(now)
-        q = out.command if out.command is not None else q
-        sources.append(out.values.get("command_source"))
-    assert sources[2:8].count("servo") >= 5, sources  # from the first ticks, while the goal is still far
