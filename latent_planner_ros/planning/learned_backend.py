@@ -165,8 +165,9 @@ class LearnedBackend(BackendDefaults):
             return True
         self.mode = "learned"
         in_views = self.max_views <= 0 or views <= self.max_views
-        inside = self.domain_share >= 1.0 or share_outside(cloud, enc.bounds_min, enc.bounds_max) <= self.domain_share
-        if in_views and inside:
+        if in_views and (
+            self.domain_share >= 1.0 or share_outside(cloud, enc.bounds_min, enc.bounds_max) <= self.domain_share
+        ):  # the share is counted only for the views the network learned
             return False
         self.mode = "geometric"
         self._fallback = self._fallback or GeometricBackend()
