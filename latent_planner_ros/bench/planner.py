@@ -89,7 +89,7 @@ def closed_loop(planner: AmpLs, problems: list[Problem], label: str, ticks: int,
         q = pr.start_q.copy()
         path = [q]
         controller.set_joint_state(q, 0.0)
-        controller.set_scene(scene, 0.0, cloud=pr.cloud)
+        controller.set_scene(scene, 0.0, cloud=pr.cloud, eyes=pr.origin)  # the camera, as the node has it
         controller.set_goal(pr.goal, 0.0)
         for k in range(ticks):
             now = k * period

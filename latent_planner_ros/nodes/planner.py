@@ -70,7 +70,7 @@ from latent_planner_ros.nodes.segment_chain import SegmentChain
 from latent_planner_ros.nodes.service_thread import ServiceThread
 from latent_planner_ros.params.config import ConfigError, from_params
 from latent_planner_ros.params.ros import ConfigParams
-from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused
+from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused, camera_eyes, pose_topic_of
 from latent_planner_ros.perception.frames import path_to_world
 from latent_planner_ros.perception.scene_input import limit_points
 from latent_planner_ros.planning.amp_ls import AmpLs
@@ -99,7 +99,7 @@ from msg_adapters import (
     status_array,
 )
 from msg_adapters.plan_request import FAILED, REFUSED, SUCCESS
-from msg_adapters.pose import pose_stamped_in_base
+from msg_adapters.pose import pose_stamped_in_base, pose_stamped_to_target
 
 REBUILT_BY = (
     "vae_checkpoint",
@@ -158,7 +158,7 @@ class PlannerNode(Node):
         self._cloud_time = 0.0
         self.fusion = CloudFusion(self.config.cloud_topics, self.frames, self.config.cloud_max_age_s)
         self._cloud_sources = "none"
-        self._last_cloud = None  # (points (N, 3), receipt time [s], camera topics fused) of the last converted cloud
+        self._last_cloud = None  # the last converted cloud: points (N, 3), receipt [s], camera topics, their eyes
         self._cloud_points = (0, 0)  # points received, points used (finite, downsampled) of the last cloud
         self._cylinders: dict = {}  # {(ns, id): (x, y, h, r) [m]} of the accepted obstacle markers
         self._obstacle_notes = ""
@@ -180,6 +180,9 @@ class PlannerNode(Node):
             CloudSubscription(self, cloud_topic, partial(self._on_cloud, cloud_topic))
             for cloud_topic in self.config.cloud_topics
         ]
+        for cloud_topic in self.config.cloud_topics:  # each camera's optical centre, beside its cloud
+            pose_topic = pose_topic_of(cloud_topic)
+            self.create_subscription(PoseStamped, pose_topic, partial(self._on_camera_pose, cloud_topic), 10)
         self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, 10)
         if self.config.amp_ls.collision_backend == "learned":
             self.create_subscription(PointCloud2, "scene_embedding", self._on_embedding, 2)
@@ -348,6 +351,16 @@ class PlannerNode(Node):
         else:
             self._error(f"joint_states refused: {reason}")
 
+    @_locked
+    def _on_camera_pose(self, cloud_topic: str, msg: PoseStamped) -> None:
+        """A camera's optical centre (`<ns>/pose` beside `<ns>/points`): the goal checks see along its rays."""
+        try:
+            pose = pose_stamped_to_target(msg, expected_frame=None)  # the fusion moves it into the base frame
+            stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+            self.fusion.add_pose(cloud_topic, pose.position, msg.header.frame_id, stamp)
+        except (AdapterError, CloudRefused) as err:  # the previous origin stays
+            self._error(str(err) if isinstance(err, CloudRefused) else f"{pose_topic_of(cloud_topic)} refused: {err}")
+
     def _on_cloud(self, cloud_topic: str, msg: PointCloud2) -> None:
         """Keep the topic's newest cloud; it is converted once, at the next tick, goal or plan request (clouds
         faster than the control rate would otherwise starve the control loop)."""
@@ -376,16 +389,17 @@ class PlannerNode(Node):
         near = fused.points[np.all(np.abs(fused.points) <= FAR_M, axis=1)]
         cloud, _ = limit_points(near, self.config.cloud_max_points, self.config.cloud_voxel_m)
         self._cloud_points = (sum(self.fusion.received[t] for t in fused.sources), len(cloud))
-        self._last_cloud = (cloud, self._cloud_time, max(1, len(fused.sources)))
+        eyes = camera_eyes(fused.origins)
+        self._last_cloud = (cloud, self._cloud_time, max(1, len(fused.sources)), eyes)
         self._apply_cloud(*self._last_cloud)
 
-    def _apply_cloud(self, cloud, received: float, views: int = 1) -> None:
-        """Hand a cloud (N, 3) [m] received at `received` [s], fused from `views` camera topics, to the AMP-LS
-        backend and the goal checks."""
-        self.modes.lspp.set_cloud(cloud)  # LSPP plans around the cylinders; the cloud only checks goals
+    def _apply_cloud(self, cloud, received: float, views: int = 1, eyes: np.ndarray | None = None) -> None:
+        """Hand a cloud (N, 3) [m] received at `received` [s], fused from `views` camera topics seen from `eyes`
+        (K, 3) [m] (None: unknown), to the AMP-LS backend and the goal checks."""
+        self.modes.lspp.set_cloud(cloud, eyes=eyes)  # LSPP plans around the cylinders; the cloud only checks goals
         controller = self.modes.amp_ls
         backend = controller.planner.backend
-        obstacles = controller.set_cloud(cloud, received, views)  # at a grasp goal without the target's points
+        obstacles = controller.set_cloud(cloud, received, views, eyes)  # at a grasp goal without the target's points
         if backend.name in CLOUD_SCENE_BACKENDS:
             controller.set_scene(obstacles, received)
             return

@@ -26,6 +26,16 @@ POSE_NAME = "pose"
 """Last token of a camera's pose topic, beside its cloud topic (`camera/points` -> `camera/pose`)."""
 
 
+def camera_eyes(origins: np.ndarray) -> np.ndarray | None:
+    """The distinct optical centres (K, 3) [m] among per-point origins (N, 3) [m] (rounded to 1 mm; NaN rows, of
+    cameras whose pose is unknown, left out), or None when no point's origin is known."""
+    origins = np.asarray(origins, dtype=float).reshape(-1, 3)
+    known = origins[np.all(np.isfinite(origins), axis=1)]
+    if len(known) == 0:
+        return None
+    return np.unique(np.round(known, 3), axis=0)
+
+
 def pose_topic_of(cloud_topic: str) -> str:
     """The pose topic beside a cloud topic: its last token replaced by `pose` (`left/points` -> `left/pose`,
     `/a/b/points` -> `/a/b/pose`, `points` -> `pose`), as image_transport pairs an image with its camera_info."""

@@ -18,6 +18,7 @@ from latent_planner_ros.params.config import MIN_RATE_HZ
 from latent_planner_ros.planning.amp_ls import AmpLs
 from latent_planner_ros.planning.evasion import Evader
 from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.goal_visibility import goal_view
 from latent_planner_ros.planning.grasp import GraspSpec
 from latent_planner_ros.planning.ik import IkConfig, solve_ik
 from latent_planner_ros.planning.plan_follow import STILL_GOAL_MPS, PlanFollower
@@ -62,6 +63,10 @@ class ClosedLoopConfig:
     """goals farther than this from the base axis origin [m] are refused as out of reach"""
     goal_clearance_m: float = 0.01
     """goals with an observed point closer than this [m] are refused as inside an obstacle"""
+    goal_hidden_m: float = 0.08
+    """[m] a goal that a camera sees hidden this close behind an observed surface (on its line of sight), and
+    that no camera sees past, is refused as probably inside an object (planning/goal_visibility.py; needs the
+    cameras' origins; 0 = off)"""
     goal_lead_s: float = 0.3
     """[s] chase where a moving goal will be this far ahead: its position plus its velocity (estimated over the
     goals of the last GOAL_VELOCITY_WINDOW_S) times this, to make up for the lag of commands and arm; 0 = the
@@ -120,8 +125,8 @@ class ClosedLoopConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {v!r}")
-        names = ("goal_clearance_m", "goal_lead_s", "goal_lead_max_m", "evade_margin_m", "evade_approach_mps",
-                 "servo_radius_m", "servo_max_rad", "servo_clearance_m")  # fmt: skip
+        names = ("goal_clearance_m", "goal_hidden_m", "goal_lead_s", "goal_lead_max_m", "evade_margin_m",
+                 "evade_approach_mps", "servo_radius_m", "servo_max_rad", "servo_clearance_m")  # fmt: skip
         for name in (*names, "plan_wait_s"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v >= 0):
@@ -177,6 +182,7 @@ class ClosedLoopController:
         self._scene: Any = None
         self._scene_time = -np.inf
         self._cloud: np.ndarray | None = None
+        self._eyes: np.ndarray | None = None  # optical centres (K, 3) [m] of the cameras of the cloud, if known
         self._failed: str | None = None
         self._best_err = np.inf
         self._best_time = 0.0
@@ -200,20 +206,28 @@ class ClosedLoopController:
         self._q, self._q_time = q, now
         return True, ""
 
-    def set_scene(self, scene: Any, now: float, cloud: np.ndarray | None = None) -> None:
-        """The scene as the planner's collision backend consumes it, and the raw cloud if known."""
+    def set_scene(
+        self, scene: Any, now: float, cloud: np.ndarray | None = None, eyes: np.ndarray | None = None
+    ) -> None:
+        """The scene as the planner's collision backend consumes it, and the raw cloud if known (seen from the
+        cameras at `eyes`, see set_cloud)."""
         self._scene, self._scene_time = scene, now
         if cloud is not None:
-            self.set_cloud(cloud, now)
+            self.set_cloud(cloud, now, eyes=eyes)
 
-    def set_cloud(self, cloud: np.ndarray, now: float | None = None, views: int = 1) -> np.ndarray:
+    def set_cloud(
+        self, cloud: np.ndarray, now: float | None = None, views: int = 1, eyes: np.ndarray | None = None
+    ) -> np.ndarray:
         """The latest raw cloud (N, 3) [m] (finite points), fused from `views` cameras, used to refuse goals inside
         observed obstacles and, with its time now [s], to notice obstacles approaching the arm (evade_margin_m);
-        `views` goes with the background plans (the learned backend's network plans from one camera only).
+        `views` goes with the background plans (the learned backend's network plans from one camera only);
+        `eyes` (K, 3) [m], the optical centres of those cameras if known, let goals hidden behind observed
+        surfaces be refused (goal_hidden_m).
         Returns the obstacles (M, 3) [m]: the cloud, or at a grasp goal the cloud without the target's points, which
         is what the hard check of every command must be given (the caller hands it to the backend)."""
         self._raw_cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
         self.cloud_views = max(1, int(views))
+        self._eyes = None if eyes is None else np.asarray(eyes, dtype=float).reshape(-1, 3)
         self._cloud = self._obstacles(self._raw_cloud)
         if now is not None and self._evader is not None:
             self._evader.add_cloud(self._cloud, now)
@@ -229,7 +243,8 @@ class ClosedLoopController:
         return np.asarray(split.obstacles, dtype=float)
 
     def check_goal(self, goal: Goal, check_cloud: bool = True) -> tuple[bool, str]:
-        """(False, reason) for a goal out of reach or (check_cloud) inside an observed obstacle, else (True, "")."""
+        """(False, reason) for a goal out of reach or (check_cloud) inside an observed obstacle or hidden just
+        behind an observed surface, else (True, "")."""
         dist = float(np.linalg.norm(goal.position - np.array([0.0, 0.0, 0.333])))
         if dist > self.config.reach_m:
             return (
@@ -240,6 +255,14 @@ class ClosedLoopController:
             d = float(np.min(np.linalg.norm(self._cloud - goal.position, axis=1)))
             if d < self.config.goal_clearance_m:
                 return False, f"goal refused: inside an observed obstacle (a point {d * 1000:.0f} mm away)"
+            if self.config.goal_hidden_m > 0 and self._eyes is not None:
+                view = goal_view(goal.position, self._cloud, self._eyes, self.config.goal_hidden_m)
+                if view.hidden:
+                    return False, (
+                        f"goal refused: hidden {view.depth_m * 100:.0f} cm behind an observed surface from "
+                        f"{view.hidden_by} camera(s) and seen past by none, probably inside an object "
+                        f"(closed_loop.goal_hidden_m {self.config.goal_hidden_m:.2f} m)"
+                    )
         return True, ""
 
     def fresh_joint_state(self, now: float) -> np.ndarray | None:
