@@ -148,8 +148,9 @@ def _goal_case(name: str) -> Callable[[Ctx], None]:
 
 def goal_inside_unobserved_interior(ctx: Ctx) -> None:
     """A camera sees a box's surface only: a goal at its centre is 6 cm from the nearest observed point, so it is
-    not refused as inside; the planner must not push into the box and must give up with a reason (the no-progress
-    watchdog, shortened to GIVE_UP_S for this case)."""
+    not refused as inside (and the probe's camera publishes no pose, so the hidden-goal rule, closed_loop.py
+    goal_hidden_m, cannot look along its rays); the planner must not push into the box and must give up with a
+    reason (the no-progress watchdog, shortened to GIVE_UP_S for this case)."""
     ok, reason = ctx.probe.set_parameter("planner", "closed_loop.no_progress_s", GIVE_UP_S)
     ctx.check(f"planner accepts closed_loop.no_progress_s={GIVE_UP_S}", ok, reason)
     ctx.probe.set_cloud(box_cloud(surface=True))
