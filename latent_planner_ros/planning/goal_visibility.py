@@ -63,8 +63,8 @@ def goal_view(position: np.ndarray, cloud: np.ndarray, eyes: np.ndarray, depth_m
         ray /= dist
         v = cloud - eye
         along = v @ ray
-        lateral = np.linalg.norm(v - along[:, None] * ray, axis=1)
-        on_ray = (lateral < LATERAL_M) & (along > 0.0)
+        lateral_sq = np.einsum("ij,ij->i", v, v) - along * along  # squared distance to the line of sight
+        on_ray = (lateral_sq < LATERAL_M * LATERAL_M) & (along > 0.0)
         before = on_ray & (along < dist - NEAR_GOAL_M)
         if before.any():
             gap = dist - float(along[before].max())
