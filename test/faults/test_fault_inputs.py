@@ -46,6 +46,7 @@ def test_the_box_cloud_fills_the_box():
 def test_bad_goals_are_refused_for_their_reason():
     ctrl = ClosedLoopController.__new__(ClosedLoopController)  # only the goal checks, no planner needed
     ctrl.config, ctrl._cloud = ClosedLoopConfig(), cloud_to_xyz(box_cloud()).astype(float)
+    ctrl._eyes = None  # cameras unknown: the clearance rule alone
     for _name, (msg, text) in bad_goals(goal_pose("A")).items():
         try:
             target = pose_stamped_to_target(msg)
