@@ -3,14 +3,11 @@ beside `camera/points`), with the reason on its status, and takes a goal above t
 
 from __future__ import annotations
 
-import json
 import os
-import subprocess
-import sys
 
 import pytest
 
-from test.nodes.test_planner_node import REPO, _run, _stop
+from test.nodes.test_planner_node import _run, probe_result
 
 PROBE = r"""
 import json, time
@@ -82,15 +79,7 @@ def test_planner_node_refuses_a_goal_hidden_behind_an_observed_surface():
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     params = ["--params-file", "config/planner.yaml", "-p", "amp_ls.collision_backend:=geometric"]
     procs = [_run("planner", [*params, "-p", "enabled:=true", "-p", "status_rate_hz:=10.0"], env)]
-    try:
-        probe = subprocess.run(
-            [sys.executable, "-c", PROBE], cwd=REPO, env=env, capture_output=True, text=True, timeout=180
-        )
-    finally:
-        logs = _stop(procs)
-    line = next((x for x in probe.stdout.splitlines() if x.startswith("RESULT ")), None)
-    assert line, f"probe failed:\n{probe.stdout}\n{probe.stderr[-3000:]}\n{logs}"
-    out = json.loads(line[len("RESULT ") :])
+    out, logs = probe_result(procs, PROBE, env, timeout=180)
     assert out["refused"] and "behind an observed surface from 1 camera(s)" in out["error"], (out, logs[-3000:])
     assert out["taken"], (out, logs[-3000:])
     assert all(p.returncode == 0 for p in procs), logs

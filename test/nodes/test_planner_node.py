@@ -158,6 +158,20 @@ def _stop(procs: list[subprocess.Popen]) -> str:
     return "\n".join(logs)
 
 
+def probe_result(procs: list[subprocess.Popen], probe: str, env: dict, timeout: float) -> tuple[dict, str]:
+    """Run the probe script against the started nodes, stop them, and return the probe's RESULT (a dict) and the
+    nodes' logs; fails the test when the probe printed no RESULT line."""
+    try:
+        run = subprocess.run(
+            [sys.executable, "-c", probe], cwd=REPO, env=env, capture_output=True, text=True, timeout=timeout
+        )
+    finally:
+        logs = _stop(procs)
+    line = next((x for x in run.stdout.splitlines() if x.startswith("RESULT ")), None)
+    assert line, f"probe failed:\n{run.stdout}\n{run.stderr[-3000:]}\n{logs}"
+    return json.loads(line[len("RESULT ") :]), logs
+
+
 @pytest.mark.ros
 @pytest.mark.slow
 @pytest.mark.parametrize("backend", ["learned", "geometric", "local"])
