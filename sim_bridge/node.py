@@ -176,7 +176,7 @@ class SimNode(Node):
         except AdapterError as err:
             self.get_logger().warning(f"joint_command refused: {err}", throttle_duration_sec=1.0)
             return
-        if self.sim.trajectory_running():  # expected while a planner sends both; not worth a warning
+        if self.sim.trajectory_owns():  # expected while a planner sends both; not worth a warning
             self.get_logger().debug("joint_command ignored: a joint_trajectory is being executed")
             return
         result = self.sim.set_command(q)

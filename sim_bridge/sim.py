@@ -40,6 +40,8 @@ from sim_bridge.trajectory_follower import TrajectoryFollower
 
 POSITION, TRAJECTORY = "position", "trajectory"
 """The command sources of :class:`Sim`: position targets (set_command) and trajectories (set_trajectory)."""
+TRAJECTORY_HOLD_S = 0.25
+"""[s] after a trajectory's end, position targets still wait this long (Sim.trajectory_owns)"""
 
 DISTANCE_CUTOFF_M = 0.5
 """[m] :meth:`Sim.nearest_object` reports distances up to this bound (farther objects: the cutoff)."""
@@ -137,7 +139,7 @@ class Sim:
     def set_command(self, q: np.ndarray) -> CommandResult:
         """New joint position target q (7,) [rad]: NaN/inf refused, out-of-limit joints clamped; refused while a
         trajectory runs."""
-        if self.trajectory_running():
+        if self.trajectory_owns():
             return CommandResult(False, reason="a trajectory is being executed (trajectories have precedence)")
         self.source = POSITION
         return self.command.set(q, self.data.time)
@@ -167,8 +169,15 @@ class Sim:
         return reason
 
     def trajectory_running(self) -> bool:
-        """True from the receipt of a trajectory to its end (position targets are refused meanwhile)."""
+        """True from the receipt of a trajectory to its end."""
         return self.source == TRAJECTORY and self.data.time < self.follower.end_time()
+
+    def trajectory_owns(self) -> bool:
+        """True from the receipt of a trajectory to TRAJECTORY_HOLD_S after its end: position targets are refused
+        meanwhile. A planner that sends each tick both as a segment and as a position target (the `planner`) must
+        not hand the arm to its position target when a tick comes a little late: the setpoint would run ahead
+        toward that target and jump back when the next segment arrives (a jolt of 10 rad/s^2 on joint 2)."""
+        return self.source == TRAJECTORY and self.data.time < self.follower.end_time() + TRAJECTORY_HOLD_S
 
     def step(self, n: int = 1) -> None:
         """Advance n physics steps: setpoint, moving objects, dynamics; contacts are latched for

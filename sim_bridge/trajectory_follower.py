@@ -3,8 +3,10 @@
 Like ros2_controllers' JointTrajectoryController: a trajectory's times are relative to its start stamp (stamp 0 =
 when it is received); it replaces the current one at that start time, from the state being commanded then (that
 state is the first knot, so the command stays continuous); points already in the past at that time are dropped
-and a trajectory that has ended before it starts is refused. Between points it interpolates the way a JTC does:
-linearly with positions only, cubic with velocities, quintic with accelerations (scipy BPoly.from_derivatives).
+and a trajectory that has ended before it starts is refused; a point less than MIN_BRIDGE_S after that time is
+dropped too (the controller's interpolation from the commanded state needs a few steps). Between points it
+interpolates the way a JTC does: linearly with positions only, cubic with velocities, quintic with accelerations
+(scipy BPoly.from_derivatives).
 After the last point it holds that position at zero velocity. Unlike a bare JTC it refuses a trajectory that
 leaves the joint limits or exceeds the velocity or acceleration limits (its given values, or the mean velocity
 between two points), with the joint and time: such a trajectory would trip a real arm's reflexes, and values
@@ -22,6 +24,11 @@ POSITION_TOL_RAD = 0.05
 """how far [rad] a point may lie outside the joint limits (a segment's stopping tail near a limit)"""
 RATE_TOL = 1.1
 """factor on the velocity and acceleration limits a trajectory may reach"""
+MIN_BRIDGE_S = 0.02
+"""[s] on replacing, the commanded state is joined to the first point at least this far ahead: a point a step
+after the splice would ask the whole difference between the two trajectories then of one step (a jolt)"""
+FUTURE_STAMP_S = 5.0
+"""[s] a trajectory stamped farther ahead of the sim's clock is refused (a sender on the wall clock, not sim time)"""
 INTERPOLATION_SAMPLES = 4
 """positions checked between each two points of a trajectory with velocities"""
 
@@ -74,6 +81,11 @@ class TrajectoryFollower:
         if beyond:
             return beyond
         start = now if stamp == 0 else float(stamp)
+        if start - now > FUTURE_STAMP_S:
+            return (
+                f"trajectory stamped {start - now:.3g} s ahead of the sim's clock ({now:.3f} s): is the sender on "
+                "another clock (use_sim_time)?"
+            )
         if start + t[-1] < now:
             return f"trajectory ended {now - start - t[-1]:.3f} s ago"
         self._pending = (start, t, q, derivs[0], derivs[1])
@@ -97,7 +109,9 @@ class TrajectoryFollower:
         self._pending = None
         q_now, dq_now = self.sample(time)
         ddq_now = self.acceleration(time)
-        keep = start + t > time  # points still ahead
+        keep = start + t > time + MIN_BRIDGE_S  # points still ahead, the first far enough to bridge to
+        if not keep.any():
+            keep[-1] = start + t[-1] > time
         abs_t = np.concatenate([[time], start + t[keep]])
         orders = [q_now[None], q[keep]]
         if dq is not None:

@@ -11,8 +11,9 @@ commands stop).
 
 Execution (while enabled and given a goal; nothing is commanded without one): at every tick a short jerk-limited
 segment to the next target on joint_trajectory (trajectory_msgs/JointTrajectory with velocities and accelerations,
-stamp 0 = on receipt; each segment starts from the state of the one it replaces, so a JointTrajectoryController, or
-the sim, follows with continuous velocity; remap it to the controller's topic), and the same target as a position
+stamped SEGMENT_LEAD_S after it is sent; each segment starts from the state of the one it replaces then, so a
+JointTrajectoryController on the same clock, or the sim, follows with continuous velocity; remap it to the
+controller's topic), and the same target as a position
 setpoint on joint_command (sensor_msgs/JointState: for arms driven by position streaming, and for the monitors that
 watch the commands). Enabling claims the arm on execution_owner; a newer claim of another node (ompl_planner with
 `execute`) disables the planner (nodes/execution_owner.py). Publishes ~/trajectory (each plan's jerk-limited
@@ -49,6 +50,7 @@ from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.duration import Duration
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Header
@@ -66,7 +68,7 @@ from latent_planner_ros.nodes.node_main import run_node
 from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
 from latent_planner_ros.nodes.qos import CloudSubscription
 from latent_planner_ros.nodes.rebuild_worker import RebuildWorker
-from latent_planner_ros.nodes.segment_chain import SegmentChain
+from latent_planner_ros.nodes.segment_chain import SEGMENT_LEAD_S, SegmentChain
 from latent_planner_ros.nodes.service_thread import ServiceThread
 from latent_planner_ros.params.config import ConfigError, from_params
 from latent_planner_ros.params.ros import ConfigParams
@@ -490,7 +492,14 @@ class PlannerNode(Node):
             limits, period = self.config.limits, 1.0 / self.config.closed_loop.rate_hz
         if outcome.command is None:
             return
-        segment = self.segments.next(now, outcome.command, outcome.command if q is None else q, limits, period)
+        # the segment starts SEGMENT_LEAD_S after it is sent (not when the tick began): the chain takes the running
+        # segment's state then and the stamp says so; a controller that has it by then switches at that instant, one
+        # that gets it later joins it where it is by then (with stamp 0, start on receipt, the command went back to
+        # the segment's start: a jolt of the arm)
+        start = self.get_clock().now() + Duration(nanoseconds=int(SEGMENT_LEAD_S * 1e9))
+        segment = self.segments.next(
+            start.nanoseconds * 1e-9, outcome.command, outcome.command if q is None else q, limits, period
+        )
         self.pub_execution.publish(
             joint_path_to_trajectory(
                 segment.positions,
@@ -498,7 +507,8 @@ class PlannerNode(Node):
                 names=self.joint_names,
                 velocities=segment.velocities,
                 accelerations=segment.accelerations,
-            )  # stamp 0: starts on receipt
+                stamp=start.to_msg(),
+            )
         )
         stamp = self.get_clock().now().to_msg()
         self.pub_command.publish(q_to_joint_state(outcome.command, names=self.joint_names, stamp=stamp))

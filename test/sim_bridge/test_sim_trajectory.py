@@ -34,7 +34,9 @@ def test_position_targets_are_refused_while_a_trajectory_runs_then_take_over(mak
     sim.step(50)
     result = sim.set_command(Q_READY)
     assert not result.accepted and "trajectory" in result.reason
-    sim.step(250)  # 0.6 s: the trajectory has ended
+    sim.step(250)  # 0.6 s: the trajectory has ended, but a late segment of its sender may still come
+    assert not sim.set_command(Q_READY).accepted and sim.source == TRAJECTORY
+    sim.step(100)  # 0.8 s: TRAJECTORY_HOLD_S after its end
     assert sim.set_command(Q_READY).accepted and sim.source == POSITION
     sim.step(1)
     assert np.all(np.abs(sim.get_state().setpoint - target) < 0.01)  # from where the trajectory left the arm
@@ -96,3 +98,28 @@ def test_a_trajectory_beyond_the_limits_is_refused_and_the_arm_holds(make_sim):
     assert sim.data.warning[mujoco.mjtWarning.mjWARN_BADCTRL].number == 0
     assert sim.source == POSITION
     np.testing.assert_allclose(sim.get_state().q, q_before, atol=0.01)
+
+
+def test_a_late_tick_after_a_segment_ended_starts_from_the_held_point_not_the_lagging_arm(make_sim):
+    """The arm tracks the segments with a lag. When the next tick comes only as a segment ends, the controller
+    holds that end, which the arm has not reached; the next segment starts at rest from the held end. Started from
+    the measured state instead, the controller's command jumped back to where the arm lagged and yanked it: 1.8
+    times the acceleration limit on joint 2 here (12-20 rad/s^2 through the node, test_execution)."""
+    from latent_planner_ros.nodes.segment_chain import SegmentChain
+
+    limits = MotionLimits()
+    step = 0.4 * limits.v_max * 0.1 * np.array([1, 1, -1, 1, 1, -1, 1])  # [rad] per tick
+    sim, chain, velocities, target = make_sim("empty"), SegmentChain(), [], Q_READY.copy()
+    for k in range(24):
+        target = target + (step if k < 10 else 0.1 * step if k == 10 else -step)  # out, nearly stop, back
+        segment = chain.next(sim.data.time, target, sim.get_state().q, limits, 0.1)
+        assert sim.set_trajectory(segment.times, segment.positions, segment.velocities, segment.accelerations) == ""
+        ticks = int(round(segment.duration / 0.01)) if k == 10 else 10  # tick 11 comes as segment 10 ends
+        for _ in range(ticks):
+            sim.step(5)
+            velocities.append(sim.get_state().dq)
+        if k == 10:
+            lag = np.abs(segment.positions[-1] - sim.get_state().q).max()
+            assert 0.002 < lag < 0.05, lag  # the case: the arm behind the held end, near it
+    peaks = (np.abs(np.diff(velocities, axis=0)) / 0.01).max(axis=0)
+    assert np.all(peaks <= 1.25 * limits.a_max), peaks / limits.a_max

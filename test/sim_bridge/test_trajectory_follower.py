@@ -31,6 +31,43 @@ def test_a_future_stamp_replaces_the_current_trajectory_only_at_its_start():
     np.testing.assert_allclose(f.sample(1.5)[0], Q_READY)
 
 
+def test_a_stamp_far_ahead_of_the_sim_clock_is_refused_with_the_likely_cause():
+    """A sender on the wall clock stamps ~1.7e9 s against a sim clock near 0: the trajectory would wait for ever."""
+    f = TrajectoryFollower(Q_READY)
+    reason = f.set_trajectory([0.5], [Q_READY + 0.1], stamp=1.7e9, now=12.0)
+    assert "ahead of the sim's clock" in reason and "use_sim_time" in reason
+    np.testing.assert_allclose(f.sample(12.5)[0], Q_READY)  # still holding
+    assert f.set_trajectory([0.5], [Q_READY + 0.1], stamp=13.0, now=12.0) == ""  # a second ahead: queued
+
+
+def test_a_segment_stamped_before_its_receipt_joins_where_the_running_one_is():
+    """The planner stamps a segment with its tick's time, at which its chain took the running segment's state; a
+    segment received later is sampled from the receipt on along its own timeline, so the command keeps its
+    direction (with stamp 0 it started over at its first point, behind where the command already was)."""
+    limits = MotionLimits()
+    f = TrajectoryFollower(Q_READY)
+    first = segment_to_target(Q_READY, np.zeros(7), np.zeros(7), Q_READY + 0.3, limits, min_duration=0.2, dt=0.02)
+    assert f.set_trajectory(first.times, first.positions, first.velocities, first.accelerations, now=0.0) == ""
+    f.sample(0.0)
+    t_tick, delay = 0.3, 0.06
+    q, dq, ddq = (
+        np.array([np.interp(t_tick, first.times, x[:, j]) for j in range(7)])
+        for x in (first.positions, first.velocities, first.accelerations)
+    )
+    second = segment_to_target(q, dq, ddq, Q_READY + 0.6, limits, min_duration=0.2, dt=0.02)
+    f.sample(t_tick + delay - 0.002)
+    q_before = f.sample(t_tick + delay)[0]
+    assert (
+        f.set_trajectory(
+            second.times, second.positions, second.velocities, second.accelerations, stamp=t_tick, now=t_tick + delay
+        )
+        == ""
+    )
+    moves = np.diff([f.sample(t_tick + delay + k * 0.002)[0] for k in range(0, 20)], axis=0)
+    assert np.all(moves >= -1e-9), "the command went back"
+    assert np.all(f.sample(t_tick + delay + 0.002)[0] >= q_before - 1e-9)
+
+
 def test_segments_replacing_each_other_give_a_continuous_velocity():
     limits = MotionLimits()
     f = TrajectoryFollower(Q_READY)
