@@ -395,6 +395,12 @@ class PlannerNode(Node):
         self._last_cloud = (cloud, self._cloud_time, max(1, len(fused.sources)), eyes)
         self._apply_cloud(*self._last_cloud)
 
+    def _camera_poses_known(self) -> int:
+        """How many cameras' optical centres the last fused cloud is seen from (0: none known, so the hidden-goal
+        rule cannot apply; a camera publishes its pose on `<ns>/pose`)."""
+        eyes = None if self._last_cloud is None else self._last_cloud[3]
+        return 0 if eyes is None else len(eyes)
+
     def _apply_cloud(self, cloud, received: float, views: int = 1, eyes: np.ndarray | None = None) -> None:
         """Hand a cloud (N, 3) [m] received at `received` [s], fused from `views` camera topics seen from `eyes`
         (K, 3) [m] (None: unknown), to the AMP-LS backend and the goal checks."""
@@ -643,6 +649,7 @@ class PlannerNode(Node):
             "cloud_points_in": points_in,
             "cloud_points_used": points_used,
             "cloud_sources": self._cloud_sources,
+            "camera_poses": self._camera_poses_known(),
             "cloud_qos": ", ".join(s.describe() for s in self.cloud_subscriptions),
             "execution_owner": self.owner.owner,
             "grasp": self.modes.amp_ls.grasp_note if self.modes.grasp is not None else "",

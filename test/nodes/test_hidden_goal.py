@@ -38,6 +38,7 @@ def on_status(msg):
     values = {kv.key: kv.value for kv in msg.status[0].values}
     state["errors"].append(values.get("last_error", ""))
     state["states"].append(values.get("state", ""))
+    state["camera_poses"] = values.get("camera_poses", "")
 
 node.create_subscription(DiagnosticArray, "planner/status", on_status, 10)
 joints = node.create_publisher(JointState, "joint_states", 10)
@@ -61,7 +62,8 @@ def spin_until(cond, timeout):
 
 out = {}
 spin_until(lambda: len(state["states"]) > 3, 60.0)
-spin_until(lambda: False, 0.5)  # cloud and camera pose reach the planner
+out["camera_poses_before"] = state.get("camera_poses")
+out["camera_known"] = spin_until(lambda: state.get("camera_poses") == "1", 30.0)  # the pose has reached the planner
 goals.publish(target_to_pose_stamped(centre, down))
 out["refused"] = spin_until(lambda: any("hidden" in e for e in state["errors"]), 10.0)
 out["error"] = next((e for e in state["errors"] if "hidden" in e), state["errors"][-1] if state["errors"] else "")
@@ -80,6 +82,7 @@ def test_planner_node_refuses_a_goal_hidden_behind_an_observed_surface():
     params = ["--params-file", "config/planner.yaml", "-p", "amp_ls.collision_backend:=geometric"]
     procs = [_run("planner", [*params, "-p", "enabled:=true", "-p", "status_rate_hz:=10.0"], env)]
     out, logs = probe_result(procs, PROBE, env, timeout=180)
+    assert out["camera_known"], (out, logs[-3000:])  # status camera_poses: the camera's pose beside its cloud
     assert out["refused"] and "behind an observed surface from 1 camera(s)" in out["error"], (out, logs[-3000:])
     assert out["taken"], (out, logs[-3000:])
     assert all(p.returncode == 0 for p in procs), logs
