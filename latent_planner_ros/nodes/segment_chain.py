@@ -20,8 +20,8 @@ from latent_planner_ros.planning.sampled_trajectory import SampledTrajectory
 from latent_planner_ros.planning.trajectory_segment import segment_to_target
 
 SEGMENT_LEAD_S = 0.04
-"""[s] a segment starts this long after it is sent (its stamp): most arrive before their start (20 ms median, 40 ms
-at the 90th percentile through the node here), and the controller then switches at that instant, seamlessly"""
+"""[s] a segment starts this long after it is sent (its stamp): most arrive before their start through the node on
+this project's machines, and the controller then switches at that instant, seamlessly"""
 REJOIN_RAD = 0.05
 """[rad] after the last segment ended, the next starts from its end while every measured joint is this close to it"""
 

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from latent_planner_ros.nodes.segment_chain import state_at
 from latent_planner_ros.planning.motion_limits import MotionLimits
 from latent_planner_ros.planning.trajectory_segment import segment_to_target
 from latent_planner_ros.robot.limits import Q_MAX, Q_READY
@@ -50,10 +51,7 @@ def test_a_segment_stamped_before_its_receipt_joins_where_the_running_one_is():
     assert f.set_trajectory(first.times, first.positions, first.velocities, first.accelerations, now=0.0) == ""
     f.sample(0.0)
     t_tick, delay = 0.3, 0.06
-    q, dq, ddq = (
-        np.array([np.interp(t_tick, first.times, x[:, j]) for j in range(7)])
-        for x in (first.positions, first.velocities, first.accelerations)
-    )
+    q, dq, ddq = state_at(first, t_tick)  # what the planner's chain starts the next segment from
     second = segment_to_target(q, dq, ddq, Q_READY + 0.6, limits, min_duration=0.2, dt=0.02)
     f.sample(t_tick + delay - 0.002)
     q_before = f.sample(t_tick + delay)[0]
