@@ -229,6 +229,8 @@ class TableRunner:
                     "timings": {k: float(v) for k, v in result.timings.items()},
                     "checked_states": int(result.info.get("checked_states", -1)),
                     "collision_backend": str(result.info.get("collision_backend", "")),
+                    "escape": str(result.info.get("escape", "")),
+                    "escape_seen_only": bool(result.info.get("escape_seen_only", False)),
                 }
             )
         return rows

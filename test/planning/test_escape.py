@@ -161,19 +161,23 @@ def test_easy_problems_do_not_use_the_escape(shipped_vae, monkeypatch):
     assert "escape_s" not in result.timings
 
 
-def test_the_escape_honours_its_time_budget(shipped_vae):
+@pytest.mark.parametrize("attempts", [1, 3])
+def test_the_escape_honours_its_time_budget_and_attempts(shipped_vae, attempts):
     """No path exists (a shell around the start in C-space): the escape runs after escape.after_s, keeps to
-    escape.budget_s, and the plan says why it failed."""
+    escape.budget_s, runs again after_s after a failure until escape.attempts ran, and the plan says why it
+    failed."""
     after, budget = 0.1, 0.5
     cfg = with_overrides(
         AmpLsConfig(collision_backend="geometric"),
-        {"search.patience": 600, "escape.after_s": after, "escape.budget_s": budget},
+        {"search.patience": 600, "escape.after_s": after, "escape.budget_s": budget, "escape.attempts": attempts},
     )
     result = AmpLs(shipped_vae, ShellBackend(), cfg).plan(Q_READY, _goal_of(GOAL_Q))
     assert not result.success
     assert "escape: rrt, no path within" in result.reason
-    assert result.timings["escape_s"] + result.timings["check_s"] > 0.5 * budget  # the search ran
-    assert result.timings["escape_s"] < budget + 0.05  # the escape kept to its budget
+    assert result.info["escape_attempts"] == attempts
+    spent = result.timings["escape_s"] + result.timings["check_s"]
+    assert spent > attempts * 0.5 * budget  # each search ran
+    assert result.timings["escape_s"] < attempts * (budget + 0.05)  # and kept to its budget
 
 
 def test_the_escape_is_off_as_none_and_refuses_bad_values(shipped_vae):

@@ -216,9 +216,11 @@ def test_start_in_collision_fails_with_a_reason(across_the_wall):
 @pytest.mark.parametrize("name", list(PLANNERS))
 def test_every_planner_solves_free_space(name, across_the_wall):
     start_q, goal = across_the_wall
-    config = OmplConfig(planner=name, anytime_budget_s=0.3, timeout_s=3.0)
+    # 1 s for the anytime planners: at 0.3 s RRT* missed now and then, by the samples OMPL's one per-process seed
+    # gave it after the tests before
+    config = OmplConfig(planner=name, anytime_budget_s=1.0, timeout_s=3.0)
     result = OmplPlanner(config).plan(start_q, goal, None)
     assert result.success, (name, result.reason)
     _check_trajectory(result, start_q, goal)
     if config.anytime:
-        assert result.timings["solve_s"] < 0.3 + 0.5
+        assert result.timings["solve_s"] < 1.0 + 0.5

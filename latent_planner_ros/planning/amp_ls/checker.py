@@ -19,6 +19,7 @@ from latent_planner_ros.planning.amp_ls.config import AmpLsConfig
 from latent_planner_ros.planning.amp_ls.search import LatentSearch
 from latent_planner_ros.planning.collision_backend import CollisionBackend
 from latent_planner_ros.planning.plan_clock import PlanClock
+from latent_planner_ros.planning.shadow_map import HiddenArm
 from latent_planner_ros.planning.time_parameterisation import interpolate
 from latent_planner_ros.robot.collision import CollisionChecker
 
@@ -33,6 +34,8 @@ class SegmentChecker:
         robot: the exact self- and table-collision checker (checks.self_check).
 
     `escape_from` (7,) [rad] or None: while set, states within checks.escape_rad of it are not refused.
+    `hidden_arm` (shadow_map.HiddenArm) or None: while set, a state that puts part of the arm where no camera has
+    seen is refused too (`seen_only`).
 
     Within `cached()` (one open-loop plan, one scene) each state's answer is kept and a state checked again is not
     recomputed: the exact finish, the lazy verification and the shortcutting check the same interpolated states
@@ -45,6 +48,7 @@ class SegmentChecker:
         self.clock = clock
         self.robot = robot
         self.escape_from: np.ndarray | None = None
+        self.hidden_arm: HiddenArm | None = None
         self._cache: dict[bytes, bool] | None = None  # state bytes -> hit, within `cached()`
 
     @contextmanager
@@ -55,6 +59,16 @@ class SegmentChecker:
             yield
         finally:
             self._cache = None
+
+    @contextmanager
+    def seen_only(self, arm: HiddenArm) -> Iterator[None]:
+        """Within the block a state also fails the check when a sphere centre of the arm is hidden from every
+        camera (`arm.hidden`): the stricter check of the RRT escape's first attempt."""
+        self.hidden_arm = arm
+        try:
+            yield
+        finally:
+            self.hidden_arm = None
 
     def n_checks(self, q_from: np.ndarray, q_to: np.ndarray) -> int:
         """m, the states checked on a step q_from (7,) -> q_to (7,) [rad]: interp_steps, or (checks.check_step_rad
@@ -88,6 +102,8 @@ class SegmentChecker:
                 hits[todo] |= ~self.robot.feasible(states[todo])
         else:
             hits = self._cached_hits(states)
+        if self.hidden_arm is not None and not hits.all():  # not cached: the plain answers stay valid
+            hits[~hits] = self.hidden_arm.hidden(states[~hits])
         if self.escape_from is not None:
             hits &= np.abs(states - self.escape_from).max(axis=1) > cfg.checks.escape_rad
         return np.split(hits, ends)

@@ -184,9 +184,24 @@ class EscapeConfig:
     (docs/benchmark.md: at 0.05 s the workcell median drops from 0.12 to 0.10 s, but RRT paths become 57 % of the
     plans instead of 28 %, and every unsafe plan measured was an escape path); `bench table --amp-ls-set
     escape.after_s=0.05` measures it"""
+    seen_share: float = 0.5
+    """fraction of budget_s that a first search spends on the seen-space check (a state with part of the arm
+    hidden from every camera behind an observed surface is refused; escape_part); if it finds no path, a search on
+    the hard check alone gets budget_s again. 0: off; needs the cloud's camera origins"""
+    attempts: int = 1
+    """escapes per plan: after one that found no path, the latent search goes on and the next runs after_s later
+    (or at once when the search ends), while the plan's time lasts (each attempt samples afresh). On the workcell
+    training split 3 attempts solved one plan more in 96 but made two more unsafe plans (escape paths; see
+    docs/benchmark.md), so one is the default"""
+    seen_depth_m: float = 0.02
+    """[m] how far behind an observed surface a point must lie to count as hidden (shadow_map.ShadowMap)"""
 
     def __post_init__(self) -> None:
-        _raise("escape.", _problems(self, positive=("budget_s",), non_negative=("after_s",)))
+        _raise("escape.", _problems(self, positive=("budget_s",), non_negative=("after_s", "seen_depth_m")))
+        if not (isinstance(self.attempts, int) and self.attempts >= 1):
+            raise ValueError(f"escape.attempts must be an integer >= 1, got {self.attempts!r}")
+        if not 0.0 <= self.seen_share < 1.0:
+            raise ValueError(f"escape.seen_share must be in [0, 1), got {self.seen_share}")
 
 
 @dataclass

@@ -4,6 +4,14 @@ Once escape.after_s of wall time passed without the goal (or earlier, when the l
 stalled or the step budget spent), RRTConnect searches joint space from the start to goal configurations on the
 planner's own hard check, within escape.budget_s (planning/escape.py); its path is shortcut like any other, and
 the result says so (reason "reached (escape: rrt)", info["escape"]).
+
+Every unsafe plan measured on the workcell sets was an escape path through geometry no camera saw (the back of a
+pillar, the far side of a wall). So the escape first searches, for escape.seen_share of its budget, on a stricter
+check that also refuses any state putting part of the arm where every camera's view is blocked by an observed
+surface (planning/shadow_map.py); only if that finds no path does it search on the hard check alone, with its
+whole budget again (so an escape takes at most (1 + seen_share) x budget_s). A path found
+in seen space is shortcut on the same strict check (`seen_only`), so the shortcut does not pull it back behind
+the surfaces.
 """
 
 from __future__ import annotations
@@ -16,9 +24,10 @@ import torch
 from latent_planner_ros.planning.amp_ls.checker import SegmentChecker
 from latent_planner_ros.planning.amp_ls.config import EscapeConfig
 from latent_planner_ros.planning.amp_ls.search import LatentSearch
-from latent_planner_ros.planning.escape import RrtEscape, goal_states
+from latent_planner_ros.planning.escape import EscapeResult, RrtEscape, goal_states
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.plan_clock import PlanClock
+from latent_planner_ros.planning.shadow_map import HiddenArm, ShadowMap
 from latent_planner_ros.robot.limits import Q_READY
 from latent_planner_ros.robot.panda import PandaModel
 
@@ -54,6 +63,23 @@ class RrtEscapePart:
         self.clock = clock
         self.generator = generator
         self.rrt = RrtEscape(checker.free, checker.densify)
+        self._scene: tuple[np.ndarray, np.ndarray] | None = None  # cloud, origin(s) of the current plan
+        self._arm: HiddenArm | None = None  # built from _scene when an escape first needs it
+        self.seen_only = False
+        """whether the last escape's path was found on the seen-space check (its shortcut must use it too)"""
+
+    def set_scene(self, cloud: np.ndarray | None, origin: np.ndarray | None) -> None:
+        """The plan's cloud (N, 3) [m] and where it was seen from ((3,) or (N, 3) [m]; None: unknown, no
+        seen-space search)."""
+        self._scene = None if cloud is None or origin is None or not len(cloud) else (cloud, origin)
+        self._arm = None
+        self.seen_only = False
+
+    def hidden_arm(self) -> HiddenArm | None:
+        """The current scene's HiddenArm (built on first use), or None without camera origins."""
+        if self._arm is None and self._scene is not None:
+            self._arm = HiddenArm(ShadowMap(*self._scene, depth_m=self.config.seen_depth_m))
+        return self._arm
 
     def run(self, s: LatentSearch, goal: Goal) -> tuple[int | None, str]:
         """Goal states within the goal's tolerance that pass the hard check (escape.goal_states, seeded by goal
@@ -78,9 +104,14 @@ class RrtEscapePart:
         for b in range(len(s.paths)):
             if all(np.abs(s.q_ok[b] - c[-1][-1]).max() > ESCAPE_START_SEPARATION_RAD for c in chains):
                 chains.append(list(s.paths[b]))
-        budget = self.config.budget_s - (time.perf_counter() - t0)
-        with self.clock.section("escape"):
-            out = self.rrt.solve([c[-1][-1] for c in chains], goal_qs, budget)
+        starts = [c[-1][-1] for c in chains]
+        t_ik = time.perf_counter()
+        out = self._seen_first(starts, goal_qs) if self.config.seen_share > 0 else None
+        self.seen_only = out is not None
+        if out is None:  # the whole budget again (goal IK excepted): the seen search must not cost a success
+            budget = self.config.budget_s - (t_ik - t0)
+            with self.clock.section("escape"):
+                out = self.rrt.solve(starts, goal_qs, budget)
         if out.vertices is None:
             return None, f"escape: rrt, {out.reason}"
         v = out.vertices
@@ -88,3 +119,21 @@ class RrtEscapePart:
         s.pending[0] = []
         s.q_prev[0] = v[-1]
         return 0, "escape: rrt"
+
+    def _seen_first(self, starts: list[np.ndarray], goal_qs: list[np.ndarray]) -> EscapeResult | None:
+        """RRTConnect on the seen-space check (`SegmentChecker.seen_only`) from the starts and to the goal states
+        (each (7,) [rad]) that pass it, within escape.seen_share x escape.budget_s; the found result (its start
+        index into `starts`), or None (no camera origins, no start or goal state in seen space, or no path)."""
+        arm = self.hidden_arm()
+        if arm is None:
+            return None
+        with self.clock.section("escape"), self.checker.seen_only(arm):
+            ok_starts = [i for i, q in enumerate(starts) if self.checker.state_free(q)]
+            ok_goals = [q for q in goal_qs if self.checker.state_free(q)]
+            if not ok_starts or not ok_goals:
+                return None
+            budget = self.config.seen_share * self.config.budget_s
+            out = self.rrt.solve([starts[i] for i in ok_starts], ok_goals, budget)
+        if out.vertices is None:
+            return None
+        return EscapeResult(out.vertices, out.reason, out.elapsed_s, out.motions, ok_starts[out.start])

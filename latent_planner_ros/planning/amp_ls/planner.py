@@ -22,6 +22,7 @@ The planner is composed of parts, each built from its sub-configuration (config.
 from __future__ import annotations
 
 import time
+from contextlib import nullcontext
 from dataclasses import replace
 
 import numpy as np
@@ -299,6 +300,8 @@ class AmpLs:
         if cfg.use_collision:
             with self.clock.section("scene"):
                 self.backend.set_scene(np.zeros((0, 3)) if cloud is None else cloud, origin)
+        if self.escape is not None:
+            self.escape.set_scene(cloud if cfg.use_collision else None, origin)
         with self.segments.cached():  # one scene for the whole plan: each state's answer is kept
             # a start refused by the (conservative) hard check: let the arm move out of it (checks.escape_rad)
             self.segments.escape_from = None
@@ -320,7 +323,8 @@ class AmpLs:
         straight = winner is not None
         reason = "step budget exhausted" if winner is None else "reached"
         escape_at = t0 + self.escape.config.after_s if self.escape is not None else np.inf  # [s] perf_counter
-        escaped = ""  # what the RRT escape reported, once it ran
+        escaped = ""  # what the RRT escape reported last, once it ran
+        attempts = 0  # escapes run
         for t in range(cfg.max_steps if winner is None else 0):
             with self.clock.section("steps"):
                 ev = self.iterate(s, goal, accept=t > 0, lazy=cfg.checks.lazy)
@@ -348,14 +352,19 @@ class AmpLs:
             if timeout_s > 0 and time.perf_counter() - t0 > timeout_s:
                 reason = f"timeout ({timeout_s:g} s)"
                 break
-            if self.escape is not None and time.perf_counter() > escape_at:  # once; if it fails, the search goes on
-                escape_at = np.inf
+            if self.escape is not None and time.perf_counter() > escape_at:  # if it fails, the search goes on
+                attempts += 1
                 winner, escaped = self.escape.run(s, goal)
                 if winner is not None:
                     reason = "reached"
                     break
+                more = attempts < self.escape.config.attempts
+                escape_at = time.perf_counter() + self.escape.config.after_s if more else np.inf
         timed_out = reason.startswith("timeout")
-        if winner is None and self.escape is not None and not escaped and not timed_out:  # stalled early
+        while winner is None and self.escape is not None and not timed_out and attempts < self.escape.config.attempts:
+            if timeout_s > 0 and time.perf_counter() - t0 > timeout_s:  # the search ended early: escape again
+                break
+            attempts += 1
             winner, escaped = self.escape.run(s, goal)
             reason = "reached" if winner is not None else reason
         if winner is None and escaped:
@@ -369,11 +378,14 @@ class AmpLs:
             winner = int(np.argmin(ends))
         q_path = np.concatenate(s.paths[winner])
         if cfg.plan.shortcut and reason == "reached":
-            q_path = self._shortcut(s.paths[winner])
+            arm = self.escape.hidden_arm() if escaped == "escape: rrt" and self.escape.seen_only else None
+            with self.segments.seen_only(arm) if arm is not None else nullcontext():
+                q_path = self._shortcut(s.paths[winner])
         if reason == "reached" and escaped and self.segments.check_segments([q_path])[0].any():
             reason = "escape: rrt path failed the final hard check"  # by construction never; kept as a guard
         result = self._result(s, q_path, winner, goal, reason, time.perf_counter() - t0, t_setup, escaped)
         result.info["start_refused"] = start_refused
+        result.info["escape_attempts"] = attempts
         result.info["collision_backend"] = self.backend.mode
         result.info["goal_configurations"] = -1 if s.goal_qs is None else len(s.goal_qs)  # -1: not searched
         result.info["guided"] = bool(np.isfinite(s.guide_q[winner, 0]))
@@ -456,6 +468,7 @@ class AmpLs:
                 "seed": b,
                 "checked_states": int(self.clock.counts["checked_states"]),
                 "escape": escaped,
+                "escape_seen_only": bool(escaped == "escape: rrt" and self.escape and self.escape.seen_only),
                 **s.last_losses,
             },
         )
