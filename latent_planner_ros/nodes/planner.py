@@ -579,7 +579,8 @@ class PlannerNode(Node):
                 scene = cloud
             cfg = self.config
             spec = self.grasp_target.spec(cfg.grasp_approach_m, cfg.grasp_target_radius_m) if grasp else None
-            return "", (PlanRequest(q, goal, scene, cloud, 0, spec, controller.cloud_views), planner, lspp)
+            views, eyes = controller.cloud_views, controller.cloud_eyes
+            return "", (PlanRequest(q, goal, scene, cloud, 0, spec, views, eyes), planner, lspp)
 
     def _plan(
         self, request: GetPlan.Request, response: GetPlan.Response, grasp: bool = False

@@ -215,6 +215,11 @@ class ClosedLoopController:
         if cloud is not None:
             self.set_cloud(cloud, now, eyes=eyes)
 
+    @property
+    def cloud_eyes(self) -> np.ndarray | None:
+        """The optical centres (K, 3) [m] of the cameras of the latest cloud, if known."""
+        return self._eyes
+
     def set_cloud(
         self, cloud: np.ndarray, now: float | None = None, views: int = 1, eyes: np.ndarray | None = None
     ) -> np.ndarray:
@@ -462,7 +467,7 @@ class ClosedLoopController:
         scene = self._scene if use_scene else None
         speed = float(np.linalg.norm(self.goal_velocity()))
         cloud = self._raw_cloud if self.grasp is not None else self._cloud  # plan_grasp sets the target aside itself
-        f.update(now, q, goal, speed, now - self._best_time, scene, cloud, self.grasp, self.cloud_views)
+        f.update(now, q, goal, speed, now - self._best_time, scene, cloud, self.grasp, self.cloud_views, self._eyes)
         t0 = time.perf_counter()
         target = f.command(q, goal)
         if target is not None:

@@ -92,12 +92,14 @@ class PlanFollower:
         cloud,
         grasp=None,
         views: int = 1,
+        eyes: np.ndarray | None = None,
     ):
         """Take up a finished plan and request a new one when it is worth it; once per tick.
 
         Args:
             now: time [s]; q: measured state (7,) [rad]; goal: the goal to plan for; goal_speed: its speed [m/s];
-            stalled_s: time [s] since the loop last made progress; scene, cloud, grasp, views: as in PlanRequest.
+            stalled_s: time [s] since the loop last made progress; scene, cloud, grasp, views, eyes: as in
+            PlanRequest.
         """
         outcome = self.runner.poll(now)
         if outcome is not None:
@@ -113,7 +115,7 @@ class PlanFollower:
             self._requested, self._requested_at, self._answered = goal.position.copy(), now, False
             self._requested_grasp = grasp
             self.plans["requested"] += 1
-            self.runner.submit(PlanRequest(q.copy(), goal, scene, cloud, self._ident, grasp, views), now)
+            self.runner.submit(PlanRequest(q.copy(), goal, scene, cloud, self._ident, grasp, views, eyes), now)
 
     def _take(self, outcome: PlanOutcome, goal: Goal) -> None:
         if outcome.request.ident != self._ident:

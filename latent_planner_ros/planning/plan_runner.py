@@ -40,6 +40,8 @@ class PlanRequest:
     grasp: GraspSpec | None = None
     views: int = 1
     """cameras the cloud was fused from (the learned backend plans with its network from one only)"""
+    eyes: np.ndarray | None = None
+    """(K, 3) [m] those cameras' optical centres, if known (AMP-LS's escape searches space they saw first)"""
 
 
 @dataclass(frozen=True)
@@ -75,6 +77,8 @@ def planning_function(planner: Any, lock: threading.Lock | None = None, reachabi
             backend = getattr(planner, "backend", None)
             if request.cloud is not None and backend is not None:
                 backend.set_cloud(request.cloud, request.views)
+            if request.eyes is not None and getattr(planner, "escape", None) is not None:
+                return planner.plan(request.q, request.goal, request.scene, eyes=request.eyes)
             return planner.plan(request.q, request.goal, request.scene)
 
     return plan

@@ -2,11 +2,12 @@
 
 A point cloud marks only the surfaces the cameras saw. The hard check treats the rest as free, so a path that
 passes behind a pillar or under a board seen from above can hit geometry that no point shows (the unsafe plans
-of the workcell set were all such RRT escape paths, docs/benchmark.md). `ShadowMap` rebuilds one spherical depth
-map per camera from the points and their origins, and calls a point *hidden* when every camera's ray to it
-passes an observed surface more than `depth_m` before reaching it.
+of the workcell set were all such RRT escape paths, docs/benchmark.md). `ShadowMap` builds one spherical depth
+map per camera from the points, and calls a point *hidden* when every camera's ray to it passes an observed
+surface more than `depth_m` before reaching it. Every observed point is a real surface and blocks every camera,
+so each camera's map holds all points, whichever camera saw them (a fused cloud needs only the cameras' centres).
 
-    shadow = ShadowMap(cloud, origins)            # cloud (N, 3) [m], origins (N, 3) or (3,) [m]
+    shadow = ShadowMap(cloud, eyes)               # cloud (N, 3) [m], eyes (K, 3) or (3,) [m]
     shadow.hidden(points)                         # (M,) bool
     HiddenArm(shadow).hidden(qs)                  # (M,) bool: a sphere centre of the arm is hidden
 
@@ -27,8 +28,6 @@ RES_RAD = 0.012
 """angular size of a depth-map cell [rad] (the default cameras' pixels are about 0.007 rad)"""
 DEPTH_M = 0.02
 """a point must lie this far behind the observed surface on its ray to be hidden [m] (depth noise, sampling)"""
-ORIGIN_ROUND_M = 1e-3
-"""per-point origins closer than this [m] belong to one camera"""
 
 
 class ShadowMap:
@@ -36,18 +35,19 @@ class ShadowMap:
 
     Args:
         cloud: (N, 3) [m] observed points in `world`.
-        origin: the camera's optical centre (3,) [m], or each point's (N, 3) [m].
+        eyes: the cameras' optical centres (K, 3) or (3,) [m] (perception.cloud_fusion.camera_eyes gives them
+            from per-point origins).
         res_rad: angular cell size [rad]; depth_m: see DEPTH_M.
     """
 
-    def __init__(self, cloud: np.ndarray, origin: np.ndarray, res_rad: float = RES_RAD, depth_m: float = DEPTH_M):
+    def __init__(self, cloud: np.ndarray, eyes: np.ndarray, res_rad: float = RES_RAD, depth_m: float = DEPTH_M):
         cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
-        origin = np.asarray(origin, dtype=float)
-        origins = np.broadcast_to(origin.reshape(-1, 3), cloud.shape) if origin.size == 3 else origin.reshape(-1, 3)
-        if len(origins) != len(cloud):
-            raise ValueError(f"origin must be (3,) or one per point ({len(cloud)}, 3), got {origin.shape}")
-        keep = np.isfinite(cloud).all(axis=1) & np.isfinite(origins).all(axis=1)
-        cloud, origins = cloud[keep], origins[keep]
+        cloud = cloud[np.isfinite(cloud).all(axis=1)]
+        eyes = np.asarray(eyes, dtype=float)
+        if eyes.ndim not in (1, 2) or eyes.shape[-1] != 3:
+            raise ValueError(f"eyes must be (3,) or (K, 3) camera centres [m], got shape {eyes.shape}")
+        eyes = eyes.reshape(-1, 3)
+        eyes = eyes[np.isfinite(eyes).all(axis=1)]
         self.res = float(res_rad)
         self.depth_m = float(depth_m)
         self._n_az = int(np.ceil(2 * np.pi / self.res))
@@ -56,11 +56,8 @@ class ShadowMap:
         self._maps: list[np.ndarray] = []  # per camera (n_az, n_el) nearest depth [m] (inf: nothing seen)
         if not len(cloud):
             return
-        keys, inverse = np.unique(np.round(origins / ORIGIN_ROUND_M).astype(np.int64), axis=0, return_inverse=True)
-        for k in range(len(keys)):
-            mine = inverse.ravel() == k
-            eye = origins[mine].mean(axis=0)
-            cell, dist = self._cells(cloud[mine] - eye)
+        for eye in eyes:
+            cell, dist = self._cells(cloud - eye)
             depth = np.full(self._n_az * self._n_el, np.inf)
             np.minimum.at(depth, cell, dist)
             depth = depth.reshape(self._n_az, self._n_el)

@@ -176,3 +176,43 @@ def test_a_goal_changed_while_its_plan_runs_is_taken_up(shipped_vae, stall_probl
             break
     assert c.follower.plans["requested"] >= 2
     assert reached(q, stall_problem)[0], out.reason
+
+
+def test_the_cameras_of_the_cloud_go_with_a_background_plan_to_amp_ls():
+    """The closed loop's camera centres travel in the plan request, and `planning_function` hands them to a
+    planner with an RRT escape (its seen-space search), not to one without."""
+    seen = []
+
+    class Fake:
+        escape = object()
+
+        def plan(self, q, goal, scene, eyes=None):
+            seen.append(eyes)
+            return "planned"
+
+    eyes = np.array([[1.0, 0.0, 1.0], [0.0, 1.0, 1.0]])
+    request = PlanRequest(Q_READY.copy(), Goal(np.array([0.5, 0.0, 0.4]), np.eye(3)), None, None, 1, eyes=eyes)
+    assert planning_function(Fake(), reachability=False)(request) == "planned"
+    np.testing.assert_array_equal(seen[-1], eyes)
+    Fake.escape = None
+    assert planning_function(Fake(), reachability=False)(request) == "planned"
+    assert seen[-1] is None
+
+    submitted = []
+
+    class Runner:
+        busy = False
+
+        def poll(self, now):
+            return None
+
+        def submit(self, request, now):
+            submitted.append(request)
+
+    c = ClosedLoopController(Fake(), ClosedLoopConfig(), runner=Runner())
+    c.set_cloud(np.zeros((3, 3)), 0.0, views=2, eyes=eyes)
+    np.testing.assert_array_equal(c.cloud_eyes, eyes)
+    assert c.follower is not None
+    c.follower.update(0.0, Q_READY.copy(), request.goal, 0.0, 0.0, None, None, None, c.cloud_views, c.cloud_eyes)
+    assert submitted and submitted[-1].views == 2
+    np.testing.assert_array_equal(submitted[-1].eyes, eyes)

@@ -37,12 +37,13 @@ def test_a_second_camera_that_sees_past_the_wall_clears_its_shadow():
     wall = _plane_x(1.0, half=0.2)
     point = np.array([[0.5, 0.0, 0.5]])  # behind the wall for A, in open view for B
     assert ShadowMap(wall, EYE_A).hidden(point).all()
-    origins = np.repeat(EYE_A[None], len(wall), 0)
     floor = np.stack(np.meshgrid(np.arange(-1, 1, 0.01), np.arange(-1, 1, 0.01)), -1).reshape(-1, 2)
     floor = np.concatenate([floor, np.zeros((len(floor), 1))], 1)  # what B sees: a floor beyond the point
-    fused = ShadowMap(np.concatenate([wall, floor]), np.concatenate([origins, np.repeat(EYE_B[None], len(floor), 0)]))
+    fused = ShadowMap(np.concatenate([wall, floor]), np.stack([EYE_A, EYE_B]))
     assert fused.views == 2
     assert not fused.hidden(point).any()
+    # every observed point is a surface that blocks every camera, whichever camera saw it
+    assert ShadowMap(wall, np.stack([EYE_A, [2.0, 0.3, 0.5]])).hidden([[0.5, 0.1, 0.5]]).all()
 
 
 def test_gaps_of_one_cell_between_samples_do_not_open_the_surface():
@@ -57,8 +58,8 @@ def test_no_points_or_no_camera_hides_nothing_and_bad_origins_are_refused():
     nan = _plane_x(1.0)
     nan[::2] = np.nan
     assert ShadowMap(nan, EYE_A).hidden(np.array([[0.5, 0.0, 0.5]])).all()  # the finite half still blocks
-    with pytest.raises(ValueError, match="origin"):
-        ShadowMap(_plane_x(1.0), np.zeros((5, 3)))
+    with pytest.raises(ValueError, match="eyes"):
+        ShadowMap(_plane_x(1.0), np.zeros((5, 2)))
 
 
 def test_the_arm_behind_a_wall_is_hidden_and_in_front_of_it_is_not():

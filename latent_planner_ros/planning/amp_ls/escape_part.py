@@ -21,6 +21,7 @@ import time
 import numpy as np
 import torch
 
+from latent_planner_ros.perception.cloud_fusion import camera_eyes
 from latent_planner_ros.planning.amp_ls.checker import SegmentChecker
 from latent_planner_ros.planning.amp_ls.config import EscapeConfig
 from latent_planner_ros.planning.amp_ls.search import LatentSearch
@@ -69,9 +70,10 @@ class RrtEscapePart:
         """whether the last escape's path was found on the seen-space check (its shortcut must use it too)"""
 
     def set_scene(self, cloud: np.ndarray | None, origin: np.ndarray | None) -> None:
-        """The plan's cloud (N, 3) [m] and where it was seen from ((3,) or (N, 3) [m]; None: unknown, no
-        seen-space search)."""
-        self._scene = None if cloud is None or origin is None or not len(cloud) else (cloud, origin)
+        """The plan's cloud (N, 3) [m] and where it was seen from: per-point origins (N, 3), or the cameras'
+        centres ((3,) or (K, 3)) [m]; None: unknown, no seen-space search."""
+        eyes = None if origin is None else camera_eyes(origin)
+        self._scene = None if cloud is None or eyes is None or not len(cloud) else (cloud, eyes)
         self._arm = None
         self.seen_only = False
 

@@ -71,6 +71,7 @@ class AmpLs:
         self.clock = PlanClock()  # where `plan`'s time goes (PlanResult.timings)
         self._robot_checker = CollisionChecker(convex=True)
         self._search: LatentSearch | None = None  # the closed loop's search, kept across ticks
+        self._eyes: np.ndarray | None = None  # the current plan's camera centres (K, 3) [m], if given
         self.config = config or AmpLsConfig()
 
     @property
@@ -262,12 +263,20 @@ class AmpLs:
 
     # -- open loop ------------------------------------------------------------------------------------
     def plan(
-        self, start_q: np.ndarray, goal: Goal, cloud: np.ndarray | None = None, origin: np.ndarray | None = None
+        self,
+        start_q: np.ndarray,
+        goal: Goal,
+        cloud: np.ndarray | None = None,
+        origin: np.ndarray | None = None,
+        eyes: np.ndarray | None = None,
     ) -> PlanResult:
         """Plan from start_q (7,) [rad] to `goal`; `cloud` (N, 3) [m] is the observed scene, seen from the camera
-        origin (3,) [m] if known (a scene embedding for the learned backend). With plan.geometric_retry, a failure
-        with the network is planned again with the geometric backend in the time left (info["geometric_retry"])."""
+        origin ((3,), or (N, 3) per point) [m] if known (a scene embedding for the learned backend). `eyes` (K, 3)
+        [m]: the cameras' optical centres when no origin is given (the RRT escape's seen-space search; a fused
+        cloud whose per-point origins are gone). With plan.geometric_retry, a failure with the network is planned
+        again with the geometric backend in the time left (info["geometric_retry"])."""
         cfg, backend = self.config, self.backend
+        self._eyes = eyes
         result = self._plan_once(start_q, goal, cloud, origin, cfg.plan.timeout_s)
         left = cfg.plan.timeout_s - result.planning_time_s if cfg.plan.timeout_s > 0 else np.inf
         if result.success or not cfg.plan.geometric_retry or backend.mode != "learned" or left < 0.1:
@@ -301,7 +310,8 @@ class AmpLs:
             with self.clock.section("scene"):
                 self.backend.set_scene(np.zeros((0, 3)) if cloud is None else cloud, origin)
         if self.escape is not None:
-            self.escape.set_scene(cloud if cfg.use_collision else None, origin)
+            raw = cloud if isinstance(cloud, np.ndarray) and cfg.use_collision else None  # not an embedding
+            self.escape.set_scene(raw, origin if origin is not None else self._eyes)
         with self.segments.cached():  # one scene for the whole plan: each state's answer is kept
             # a start refused by the (conservative) hard check: let the arm move out of it (checks.escape_rad)
             self.segments.escape_from = None
