@@ -99,4 +99,4 @@ def test_the_escape_searches_seen_space_first_and_its_path_stays_there(shipped_v
 
 def test_seen_share_out_of_range_is_refused():
     with pytest.raises(ValueError, match="seen_share"):
-        with_overrides(AmpLsConfig(), {"escape.seen_share": 1.0})
+        with_overrides(AmpLsConfig(), {"escape.seen_share": 1.5})

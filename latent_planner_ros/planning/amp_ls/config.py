@@ -200,8 +200,8 @@ class EscapeConfig:
         _raise("escape.", _problems(self, positive=("budget_s",), non_negative=("after_s", "seen_depth_m")))
         if not (isinstance(self.attempts, int) and self.attempts >= 1):
             raise ValueError(f"escape.attempts must be an integer >= 1, got {self.attempts!r}")
-        if not 0.0 <= self.seen_share < 1.0:
-            raise ValueError(f"escape.seen_share must be in [0, 1), got {self.seen_share}")
+        if not 0.0 <= self.seen_share <= 1.0:
+            raise ValueError(f"escape.seen_share must be in [0, 1], got {self.seen_share}")
 
 
 @dataclass
