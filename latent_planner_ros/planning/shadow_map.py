@@ -96,9 +96,10 @@ class ShadowMap:
 
 class HiddenArm:
     """Whether a configuration puts part of the arm where no camera has seen: a moving sphere centre of the
-    arm's sphere model (robot/spheres.py) in `ShadowMap.hidden`."""
+    arm's sphere model (robot/spheres.py) in `ShadowMap.hidden`. `shadow` may be replaced (one HiddenArm per
+    planner, one ShadowMap per scene); None hides nothing."""
 
-    def __init__(self, shadow: ShadowMap):
+    def __init__(self, shadow: ShadowMap | None = None):
         self.shadow = shadow
         spheres = panda_spheres()
         moving = spheres.link != LINK_FRAMES.index("panda_link0")
@@ -109,7 +110,7 @@ class HiddenArm:
     def hidden(self, qs: np.ndarray) -> np.ndarray:
         """(M,) bool for configurations qs (M, 7) [rad]: some sphere centre of the arm is hidden."""
         qs = np.atleast_2d(np.asarray(qs, dtype=float))
-        if not self.shadow.views or not len(qs):
+        if self.shadow is None or not self.shadow.views or not len(qs):
             return np.zeros(len(qs), dtype=bool)
         frames = self._fk.frames_np(qs)[:, self._link, :3, :]  # (M, S, 3, 4)
         c = np.einsum("msij,sj->msi", frames, self._centre)

@@ -85,7 +85,8 @@ def test_the_escape_searches_seen_space_first_and_its_path_stays_there(shipped_v
     side = np.cross(normal, [0, 0, 1.0])
     eye = centre - 1.2 * side / np.linalg.norm(side) - 0.4 * normal + [0, 0, 0.3]  # start and goal in view
     field = GeometricBackendConfig(distance="field")  # the latent search stalls at the wall (test_escape)
-    base = {"collision_backend": "geometric", "escape.after_s": 0.3}  # the escape runs 0.3 s in
+    # the escape runs 0.3 s in, with time to spare for its seen-space search on a loaded machine
+    base = {"collision_backend": "geometric", "escape.after_s": 0.3, "escape.budget_s": 3.0, "escape.seen_share": 1.0}
     planner = AmpLs(shipped_vae, GeometricBackend(field), with_overrides(AmpLsConfig(), base))
     result = planner.plan(Q_READY, goal, wall, eye)
     assert result.success and result.reason == "reached (escape: rrt)", result.reason
@@ -100,3 +101,20 @@ def test_the_escape_searches_seen_space_first_and_its_path_stays_there(shipped_v
 def test_seen_share_out_of_range_is_refused():
     with pytest.raises(ValueError, match="seen_share"):
         with_overrides(AmpLsConfig(), {"escape.seen_share": 1.5})
+
+
+def test_the_escape_builds_one_shadow_map_per_scene_and_none_without_cameras(shipped_vae):
+    planner = AmpLs(shipped_vae, GeometricBackend(), AmpLsConfig(collision_backend="geometric"))
+    escape = planner.escape
+    assert escape is not None
+    escape.set_scene(_plane_x(1.0), EYE_A)
+    arm = escape.hidden_arm()
+    assert arm is not None and arm.shadow is not None and arm.shadow.views == 1
+    first = arm.shadow
+    assert escape.hidden_arm() is arm and arm.shadow is first  # asked again in the same scene: kept
+    per_point = np.repeat(np.stack([EYE_A, EYE_B]), 2000, axis=0)  # per-point origins of two cameras
+    escape.set_scene(_plane_x(1.2)[:4000], per_point)
+    assert escape.hidden_arm() is arm and arm.shadow is not first and arm.shadow.views == 2
+    escape.set_scene(_plane_x(1.0), None)
+    assert escape.hidden_arm() is None
+    assert not HiddenArm().hidden(Q_READY[None]).any()  # no shadow map: nothing hidden
