@@ -62,6 +62,16 @@ def test_unknown_cameras_hide_nothing(views):
     np.testing.assert_allclose(eyes, np.stack([SIDE, FRONT]), atol=1e-3)  # one per camera, NaN rows left out
 
 
+def test_camera_eyes_equals_the_distinct_rounded_origins_in_any_order():
+    rng = np.random.default_rng(3)
+    cams = rng.uniform(-2, 2, (4, 3))
+    for order in ("runs", "shuffled"):
+        origins = np.repeat(cams, [500, 3, 1, 800], axis=0)
+        if order == "shuffled":
+            origins = rng.permutation(origins)
+        np.testing.assert_array_equal(camera_eyes(origins), np.unique(np.round(origins, 3), axis=0))
+
+
 def _controller(vae, **cfg):
     planner = AmpLs(vae, GeometricBackend(), AmpLsConfig(collision_backend="geometric"))
     return ClosedLoopController(planner, ClosedLoopConfig(**cfg))

@@ -64,7 +64,7 @@ class RrtEscapePart:
         self.clock = clock
         self.generator = generator
         self.rrt = RrtEscape(checker.free, checker.densify)
-        self._scene: tuple[np.ndarray, np.ndarray] | None = None  # cloud, camera centres of the current plan
+        self._scene: tuple[np.ndarray, np.ndarray] | None = None  # cloud, origin(s) or camera centres of the plan
         self._arm: HiddenArm | None = None  # the sphere model, built once; its shadow per scene
         self._shadow_of: tuple[np.ndarray, np.ndarray] | None = None  # the scene the arm's shadow was built for
         self.seen_only = False
@@ -73,19 +73,20 @@ class RrtEscapePart:
     def set_scene(self, cloud: np.ndarray | None, origin: np.ndarray | None) -> None:
         """The plan's cloud (N, 3) [m] and where it was seen from: per-point origins (N, 3), or the cameras'
         centres ((3,) or (K, 3)) [m]; None: unknown, no seen-space search."""
-        eyes = None if origin is None else camera_eyes(origin)
-        self._scene = None if cloud is None or eyes is None or not len(cloud) else (cloud, eyes)
+        self._scene = None if cloud is None or origin is None or not len(cloud) else (cloud, origin)
         self.seen_only = False
 
     def hidden_arm(self) -> HiddenArm | None:
         """The HiddenArm of the current scene (its ShadowMap built on first use, 15-30 ms for 40k points and 3
-        cameras here), or None without camera centres."""
+        cameras here), or None without camera origins (its shadow None when none of them is finite)."""
         if self._scene is None:
             return None
         if self._arm is None:
             self._arm = HiddenArm()
         if self._shadow_of is not self._scene:
-            self._arm.shadow = ShadowMap(*self._scene, depth_m=self.config.seen_depth_m)
+            cloud, origin = self._scene
+            eyes = camera_eyes(origin)
+            self._arm.shadow = None if eyes is None else ShadowMap(cloud, eyes, depth_m=self.config.seen_depth_m)
             self._shadow_of = self._scene
         return self._arm
 
@@ -134,7 +135,7 @@ class RrtEscapePart:
         index into `starts`), or None (no camera origins, no start or goal state in seen space, or no path)."""
         with self.clock.section("escape"):  # the shadow map's time counts as the escape's
             arm = self.hidden_arm()
-        if arm is None:
+        if arm is None or arm.shadow is None:
             return None
         with self.clock.section("escape"), self.checker.seen_only(arm):
             ok_starts = [i for i, q in enumerate(starts) if self.checker.state_free(q)]
