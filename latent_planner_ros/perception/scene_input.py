@@ -85,6 +85,18 @@ def limit_points(points: np.ndarray, max_points: int, voxel: float) -> tuple[np.
     return out[keep], used
 
 
+def origin_groups(origins: np.ndarray) -> np.ndarray:
+    """The camera index (M,) of each of per-point origins (M, 3) [m]: what `np.unique(origins, axis=0,
+    return_inverse=True)` gives (NaN rows one group, last), in O(M) for a fused cloud, whose points come in one
+    run per camera (the sort is of the runs' first rows only; np.unique of 27k rows took about 60 ms here)."""
+    key = np.nan_to_num(np.asarray(origins, dtype=np.float64).reshape(-1, 3), nan=np.inf)
+    if not len(key):
+        return np.zeros(0, dtype=np.int64)
+    first = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
+    _, run_group = np.unique(key[first], axis=0, return_inverse=True)
+    return np.repeat(run_group.reshape(-1), np.diff(np.r_[first, len(key)]))
+
+
 def limit_points_by_origin(
     points: np.ndarray, origins: np.ndarray, max_points: int, voxel: float
 ) -> tuple[np.ndarray, np.ndarray, float]:
@@ -99,7 +111,7 @@ def limit_points_by_origin(
     """
     if len(points) <= max_points:
         return points, origins, 0.0
-    _, group = np.unique(np.nan_to_num(origins, nan=np.inf), axis=0, return_inverse=True)
+    group = origin_groups(origins)
     members = [np.flatnonzero(group.reshape(-1) == g) for g in range(int(group.max()) + 1)]
     out, out_origins, used = points, origins, 0.0
     if voxel > 0.0:

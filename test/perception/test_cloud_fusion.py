@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from latent_planner_ros.perception.cloud_fusion import CloudFusion, CloudRefused, pose_topic_of
-from latent_planner_ros.perception.scene_input import limit_points, limit_points_by_origin, prepare_cloud
+from latent_planner_ros.perception.scene_input import limit_points, limit_points_by_origin, origin_groups, prepare_cloud
 
 TOPICS = ("camera/points", "left/points")
 EYE_A, EYE_B = np.array([1.6, 0.7, 0.9]), np.array([0.5, -1.2, 1.0])
@@ -102,3 +102,15 @@ def test_limit_points_by_origin_keeps_each_cameras_origin_and_matches_one_camera
     assert {tuple(r) for r in org} == {tuple(EYE_A), tuple(EYE_B)}
     prepared = prepare_cloud(both, (0.0, -0.6, -0.05), (1.0, 0.6, 0.55), 800, 0.02, origins=origins)
     assert prepared.points_used <= 800 and prepared.origins.shape == prepared.points.shape
+
+
+def test_origin_groups_equal_numpys_unique_inverse_in_any_order_with_nan_rows():
+    rng = np.random.default_rng(5)
+    cams = np.vstack([rng.uniform(-2, 2, (3, 3)), np.full((1, 3), np.nan)])
+    for shuffled in (False, True):
+        origins = np.repeat(cams, [400, 2, 700, 50], axis=0)
+        if shuffled:
+            origins = rng.permutation(origins)
+        expected = np.unique(np.nan_to_num(origins, nan=np.inf), axis=0, return_inverse=True)[1].reshape(-1)
+        np.testing.assert_array_equal(origin_groups(origins), expected)
+    assert origin_groups(np.zeros((0, 3))).shape == (0,)
