@@ -34,6 +34,7 @@ from latent_planner_ros.evaluation.soak_workload import (
     grasp_candidates,
     object_top_z,
     resolve_pose,
+    spans_a_switch,
     still_objects,
 )
 from latent_planner_ros.robot.rotations import quat_to_matrix
@@ -63,6 +64,23 @@ def test_workload_is_seeded_and_covers_every_event_kind():
     short = counts(generate(0.5, seed=0))
     assert all(short[k] > 0 for k in ("scenario", "camera_dropout", "joint_pause", "param_change", "plan_request"))
     assert short["scenario"] == 2
+
+
+def test_no_joint_state_pause_spans_a_scenario_switch():
+    """A switch resets the sim (the arm jumps back to its start), which a planner without joint states cannot see:
+    seed 0's 60-minute workload had a switch at 277.5 s, 0.2 s into a 0.56 s pause (soak60c). Pauses are still
+    drawn."""
+    for seed in (0, 1, 2):
+        events = generate(60, seed=seed)
+        switches = np.array([e.t for e in events if e.kind == "scenario"])
+        pauses = [e for e in events if e.kind == "joint_pause"]
+        assert len(pauses) > 30
+        for e in pauses:
+            assert not np.any((switches >= e.t - 0.1) & (switches <= e.t + e.params["duration_s"] + 0.1)), e
+    switches = np.array([e.t for e in generate(60, seed=0) if e.kind == "scenario"])
+    assert spans_a_switch(Event(277.3, "joint_pause", {"duration_s": 0.56}), np.array([277.48]))
+    assert not spans_a_switch(Event(276.0, "joint_pause", {"duration_s": 0.56}), np.array([277.48]))
+    assert any(abs(t - 277.48) < 0.01 for t in switches)  # the switch of soak60c is still there
 
 
 def test_workload_values_lie_in_their_ranges():
