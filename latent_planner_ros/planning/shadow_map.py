@@ -58,11 +58,10 @@ class ShadowMap:
             return
         for eye in eyes:
             cell, dist = self._cells(cloud - eye)
-            depth = np.full(self._n_az * self._n_el, np.inf)
-            np.minimum.at(depth, cell, dist)
-            depth = depth.reshape(self._n_az, self._n_el)
+            flat = np.full(self._n_az * self._n_el, np.inf)
+            np.minimum.at(flat, cell, dist)
             # one cell's gap between the samples of a surface must not open a window through it
-            depth = minimum_filter(depth, size=3, mode=("wrap", "nearest"))
+            depth = minimum_filter(flat.reshape(self._n_az, self._n_el), size=3, mode=("wrap", "nearest"))
             self.eyes.append(eye)
             self._maps.append(depth)
 
@@ -114,4 +113,5 @@ class HiddenArm:
             return np.zeros(len(qs), dtype=bool)
         frames = self._fk.frames_np(qs)[:, self._link, :3, :]  # (M, S, 3, 4)
         c = np.einsum("msij,sj->msi", frames, self._centre)
-        return self.shadow.hidden(c.reshape(-1, 3)).reshape(len(qs), -1).any(axis=1)
+        hidden: np.ndarray = self.shadow.hidden(c.reshape(-1, 3)).reshape(len(qs), -1)
+        return np.asarray(hidden.any(axis=1))

@@ -388,7 +388,8 @@ class AmpLs:
             winner = int(np.argmin(ends))
         q_path = np.concatenate(s.paths[winner])
         if cfg.plan.shortcut and reason == "reached":
-            arm = self.escape.hidden_arm() if escaped == "escape: rrt" and self.escape.seen_only else None
+            seen = self.escape is not None and escaped == "escape: rrt" and self.escape.seen_only
+            arm = self.escape.hidden_arm() if seen and self.escape is not None else None
             with self.segments.seen_only(arm) if arm is not None else nullcontext():
                 q_path = self._shortcut(s.paths[winner])
         if reason == "reached" and escaped and self.segments.check_segments([q_path])[0].any():
