@@ -372,7 +372,7 @@ class AmpLs:
                 escape_at = time.perf_counter() + self.escape.config.after_s if more else np.inf
         timed_out = reason.startswith("timeout")
         while winner is None and self.escape is not None and not timed_out and attempts < self.escape.config.attempts:
-            if timeout_s > 0 and time.perf_counter() - t0 > timeout_s:  # the search ended early: escape again
+            if timeout_s > 0 and time.perf_counter() - t0 > timeout_s:  # the plan's time is spent
                 break
             attempts += 1
             winner, escaped = self.escape.run(s, goal)
@@ -387,9 +387,10 @@ class AmpLs:
             ends = np.array([self._fk_err(p[-1][-1], goal)[0] for p in s.paths])
             winner = int(np.argmin(ends))
         q_path = np.concatenate(s.paths[winner])
+        escape = self.escape
+        seen_path = escape is not None and escaped == "escape: rrt" and escape.seen_only  # found in seen space
         if cfg.plan.shortcut and reason == "reached":
-            seen = self.escape is not None and escaped == "escape: rrt" and self.escape.seen_only
-            arm = self.escape.hidden_arm() if seen and self.escape is not None else None
+            arm = escape.hidden_arm() if escape is not None and seen_path else None
             with self.segments.seen_only(arm) if arm is not None else nullcontext():
                 q_path = self._shortcut(s.paths[winner])
         if reason == "reached" and escaped and self.segments.check_segments([q_path])[0].any():
@@ -397,6 +398,7 @@ class AmpLs:
         result = self._result(s, q_path, winner, goal, reason, time.perf_counter() - t0, t_setup, escaped)
         result.info["start_refused"] = start_refused
         result.info["escape_attempts"] = attempts
+        result.info["escape_seen_only"] = bool(seen_path)
         result.info["collision_backend"] = self.backend.mode
         result.info["goal_configurations"] = -1 if s.goal_qs is None else len(s.goal_qs)  # -1: not searched
         result.info["guided"] = bool(np.isfinite(s.guide_q[winner, 0]))
@@ -479,7 +481,6 @@ class AmpLs:
                 "seed": b,
                 "checked_states": int(self.clock.counts["checked_states"]),
                 "escape": escaped,
-                "escape_seen_only": bool(escaped == "escape: rrt" and self.escape and self.escape.seen_only),
                 **s.last_losses,
             },
         )
