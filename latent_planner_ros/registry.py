@@ -22,6 +22,7 @@ TRAIN = {
 }
 
 BENCH = {
+    "background": "latent_planner_ros.bench.background:main",
     "collision": "latent_planner_ros.bench.collision:main",
     "conveyor": "latent_planner_ros.bench.conveyor:main",
     "faults": "latent_planner_ros.bench.faults:main",

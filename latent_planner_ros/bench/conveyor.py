@@ -17,6 +17,7 @@ trials, and per-trial figures), ``DIR/conveyor.md`` and plots.
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 import numpy as np
@@ -157,6 +158,31 @@ def figures(tracks: list, rows: list[dict], ticks: list[np.ndarray], rule_tol_m:
     return {"errors": fig_err, "ticks": fig_ticks}
 
 
+def add_planner_set(p: argparse.ArgumentParser) -> None:
+    """The --planner-set option (repeatable NAME=VALUE) of the benches that run the planner node."""
+    p.add_argument(
+        "--planner-set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a planner parameter for this run on top of config/planner.yaml (repeatable), e.g. "
+        "closed_loop.goal_lead_s=0.5",
+    )
+
+
+def check_planner_set(p: argparse.ArgumentParser, items: list[str]) -> None:
+    """Exit through p.error when an item names no planner parameter: the node would drop it with only a warning
+    in its log, and the run would not be the one asked for (malformed items are refused by the suite)."""
+    from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
+    from latent_planner_ros.params.specs import param_specs
+
+    known = param_specs(PlannerNodeConfig(), RANGES, READ_ONLY)
+    names = [item.partition("=")[0].strip() for item in items if "=" in item and ":=" not in item]
+    unknown = [name for name in names if name and name not in known]
+    if unknown:
+        p.error(f"--planner-set: not a planner parameter: {', '.join(unknown)} (docs/nodes.md lists them)")
+
+
 def main(argv: list[str]) -> int:
     p = bench_parser("conveyor", __doc__.split("\n\n")[0])
     p.add_argument("--trials", type=int, default=10, help="number of trials (default 10)")
@@ -178,14 +204,7 @@ def main(argv: list[str]) -> int:
         help="run only these trials (0-based indices into the sequence --seed draws), e.g. to re-run an earlier "
         "run's failures; replaces --trials",
     )
-    p.add_argument(
-        "--planner-set",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="a planner parameter for this run on top of config/planner.yaml (repeatable), e.g. "
-        "closed_loop.goal_lead_s=0.5",
-    )
+    add_planner_set(p)
     p.add_argument(
         "--record", action="store_true", help="record each trial into a rosbag2 MCAP bag, OUT/bags/trial_<index>"
     )
@@ -198,14 +217,7 @@ def main(argv: list[str]) -> int:
         indices = trial_indices(args.only, args.trials)
     except ValueError as err:
         p.error(str(err))
-    from latent_planner_ros.nodes.planner_config import RANGES, READ_ONLY, PlannerNodeConfig
-    from latent_planner_ros.params.specs import param_specs
-
-    known = param_specs(PlannerNodeConfig(), RANGES, READ_ONLY)
-    names = [item.partition("=")[0].strip() for item in args.planner_set if "=" in item and ":=" not in item]
-    unknown = [name for name in names if name and name not in known]  # (malformed items: refused further on)
-    if unknown:  # the node would drop them silently (with a warning in its log): a run that is not what was asked
-        p.error(f"--planner-set: not a planner parameter: {', '.join(unknown)} (docs/nodes.md lists them)")
+    check_planner_set(p, args.planner_set)
 
     from latent_planner_ros.evaluation.conveyor_suite import ConveyorSuite, StartupError, SuiteFailed, plan_suite
     from latent_planner_ros.evaluation.trial import SuccessRule, tick_samples, tracking, trial_metrics

@@ -1,7 +1,7 @@
 """`bench soak`: the closed-loop suite through the ROS graph for N minutes on a randomised, seeded workload.
 
     python -m latent_planner_ros bench soak --out DIR [--minutes N] [--seed S] [--backend geometric|learned]
-        [--real-time-factor F] [--domain-id N]
+        [--real-time-factor F] [--domain-id N] [--planner-set NAME=VALUE ...]
 
 The suite is the conveyor bench's (sim, scene_encoder for the learned backend, planner, each with its
 ``config/<node>.yaml`` and ``use_sim_time``), with the planner's ``joint_states`` and the planner's and encoder's
@@ -33,6 +33,7 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from latent_planner_ros.bench.conveyor import add_planner_set, check_planner_set
 from latent_planner_ros.bench.report import bench_parser, write_report
 from latent_planner_ros.evaluation.soak_report import SoakLog
 
@@ -44,13 +45,15 @@ JOINT_PAUSE_EXCUSE_S = 0.3
 """[s] after a joint-state pause ends, the planner may still be without fresh states (the next state's transit)."""
 
 
-def plan_soak(backend: str | None, seed: int, real_time_factor: float):
+def plan_soak(backend: str | None, seed: int, real_time_factor: float, planner_set: list[str] | None = None):
     """The conveyor bench's SuitePlan turned into the soak's: tabletop first, the planner disabled until the first
     scene is up, its joint states and clouds (and the encoder's) from the probe's relays, goals from the probe."""
     from latent_planner_ros.evaluation.conveyor_suite import plan_suite
     from latent_planner_ros.evaluation.probes.soak_probe import CLOUD_RELAY, JOINTS_RELAY
 
-    plan = plan_suite(backend, seed=seed, real_time_factor=real_time_factor, status_rate_hz=10.0)
+    plan = plan_suite(
+        backend, seed=seed, real_time_factor=real_time_factor, status_rate_hz=10.0, planner_set=planner_set or ()
+    )
     params = {n: list(v) for n, v in plan.params.items()}
     params["sim"] = [p for p in params["sim"] if not p.startswith("scenario:=")] + ["scenario:=tabletop"]
     cloud = ["-r", f"camera/points:={CLOUD_RELAY}"]
@@ -139,7 +142,7 @@ def run_soak(args, out: Path, stop: threading.Event | None = None) -> tuple[Soak
     from latent_planner_ros.processes.node_suite import suite_env, suite_specs
     from latent_planner_ros.processes.supervisor import Supervisor, describe_exit
 
-    plan = plan_soak(args.backend, args.seed, args.real_time_factor)
+    plan = plan_soak(args.backend, args.seed, args.real_time_factor, args.planner_set)
     for note in plan.notes:
         print(f"[bench soak] {note}", file=sys.stderr)
     events = generate(args.minutes, args.seed)
@@ -247,7 +250,9 @@ def main(argv: list[str]) -> int:
     p.add_argument("--backend", choices=("geometric", "learned"), help="default: config/planner.yaml's")
     p.add_argument("--real-time-factor", type=float, default=1.0, metavar="F", help="sim pace (default 1)")
     p.add_argument("--domain-id", type=int, metavar="N", help="ROS_DOMAIN_ID (default: a random one)")
+    add_planner_set(p)
     args = p.parse_args(argv)
+    check_planner_set(p, args.planner_set)
     if not 0 < args.minutes <= 24 * 60 or not 0.1 <= args.real_time_factor <= 10:
         p.error("--minutes in (0, 1440] and --real-time-factor in [0.1, 10] are required")
     if args.domain_id is None:

@@ -82,6 +82,7 @@ from latent_planner_ros.planning.cylinder_backend import CylinderBackend
 from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.grasp import grasp_reason, plan_grasp_spec
 from latent_planner_ros.planning.lspp import make_lspp
+from latent_planner_ros.planning.plan_process import PlanProcess, PlanSpec
 from latent_planner_ros.planning.plan_runner import PlanRequest, ThreadedPlanRunner, planning_function
 from latent_planner_ros.planning.planner_modes import LSPP, PlannerModes
 from latent_planner_ros.planning.time_parameterisation import jerk_limited_trajectory
@@ -149,6 +150,7 @@ class PlannerNode(Node):
         self.config = params.config
         self.frames, self.joint_names = self.config.frames.frames(), self.config.frames.joint_names
         self.vae, _ = load_vae(self.config.vae_checkpoint or None)
+        self.plan_process = PlanProcess() if self.config.plan_process else None
         self.modes, self.plan_planner = self._make_modes(self.config, self.vae)
         self._accepted = (self.config, self.vae)  # the newest accepted configuration (its planners may be building)
         self._rebuild = RebuildWorker(self._build, name="planner-rebuild")
@@ -208,6 +210,8 @@ class PlannerNode(Node):
     def destroy_node(self) -> None:
         self._rebuild.close()
         self.service_thread.close()
+        if self.plan_process is not None:
+            self.plan_process.close()
         super().destroy_node()
 
     def _make_modes(self, config: PlannerNodeConfig, vae) -> tuple[PlannerModes, AmpLs]:
@@ -222,7 +226,17 @@ class PlannerNode(Node):
         lspp = make_lspp(vae, config.lspp_config(), config.lspp_checkpoint or None, config.lspp_check)
         for planner in (stepping, lspp, plan_planner):
             planner.warm_up()
-        runner = ThreadedPlanRunner(planning_function(plan_planner, self._plan_lock))
+        if self.plan_process is not None:  # the background plans in the child process, with the same planner
+            spec = PlanSpec(
+                config.amp_ls_config(),
+                config.amp_ls.collision_backend,
+                config.collision_checkpoint,
+                config.vae_checkpoint,
+            )
+            self.plan_process.prepare(spec)
+            runner = ThreadedPlanRunner(self.plan_process.plan_fn(spec))
+        else:
+            runner = ThreadedPlanRunner(planning_function(plan_planner, self._plan_lock))
         modes = PlannerModes(
             ClosedLoopController(stepping, config.closed_loop_config(), runner),
             ClosedLoopController(lspp, config.closed_loop_config()),
@@ -638,6 +652,13 @@ class PlannerNode(Node):
         return backend.link_p_collision(q)
 
     @_locked
+    def _background_plans(self) -> str:
+        """Where the closed loop's background plans run: "process <pid>" (once the child is up) or "thread"."""
+        if self.plan_process is None:
+            return "thread"
+        pid = self.plan_process.pid
+        return "process (starting)" if pid is None else f"process {pid}"
+
     def _publish_status(self) -> None:
         o = self._last_outcome
         points_in, points_used = self._cloud_points
@@ -653,6 +674,7 @@ class PlannerNode(Node):
             "camera_poses": self._camera_poses_known(),
             "cloud_qos": ", ".join(s.describe() for s in self.cloud_subscriptions),
             "execution_owner": self.owner.owner,
+            "background_plans": self._background_plans(),
             "grasp": self.modes.amp_ls.grasp_note if self.modes.grasp is not None else "",
             "grasp_target": self.grasp_target.describe(self.config.grasp_target_radius_m),
             **o.values,

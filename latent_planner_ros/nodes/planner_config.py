@@ -172,6 +172,9 @@ class PlannerNodeConfig:
     grasp_target_radius_m: float = 0.0
     """[m] ~/plan_grasp: the target is every cloud point within this of the grasp goal's TCP; 0 = find the object
     in the cloud (the closing region's points grown through connected points, perception/grasp_target.py)"""
+    plan_process: bool = True
+    """run the closed loop's background plans in a child process (planning/plan_process.py): a plan then never
+    shares the control loop's interpreter; false = on a thread of the node; fixed at start-up"""
     tuning_file: str = ""
     """a YAML of the settings that are not parameters (nodes/planner_tuning.py); empty = their defaults; fixed at
     start-up"""
@@ -252,5 +255,5 @@ RANGES = {
 }
 """Valid ranges of the planner's parameters (latent_planner_ros/params/specs.py), as the validation enforces them."""
 
-READ_ONLY = ("cloud_topics", "tuning_file", *FRAMES_READ_ONLY)
-"""Parameters fixed at start-up (subscriptions and frames)."""
+READ_ONLY = ("cloud_topics", "tuning_file", "plan_process", *FRAMES_READ_ONLY)
+"""Parameters fixed at start-up (subscriptions, frames, where background plans run)."""

@@ -270,3 +270,13 @@ def test_short_soak_writes_a_complete_report(tmp_path):
     for name in ("soak.md", "soak_resources.png", "soak_ticks.png", "soak_goals.png", "soak_events.json"):
         assert (tmp_path / name).stat().st_size > 0
     assert code == (0 if res["contacts"] == 0 else 1)
+
+
+def test_soak_planner_parameters_reach_the_planner_and_unknown_names_are_refused(capsys):
+    from latent_planner_ros.bench.soak import main, plan_soak
+
+    plan = plan_soak("geometric", 0, 1.0, ["plan_process=false", "closed_loop.goal_lead_s=0.5"])
+    assert {"plan_process:=false", "closed_loop.goal_lead_s:=0.5"} <= set(plan.params["planner"])
+    with pytest.raises(SystemExit):
+        main(["--out", "/tmp/unused", "--planner-set", "closed_loop.no_such_thing=1"])
+    assert "not a planner parameter: closed_loop.no_such_thing" in capsys.readouterr().err

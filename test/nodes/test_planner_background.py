@@ -40,6 +40,7 @@ def on_status(msg):
     values = {kv.key: kv.value for kv in msg.status[0].values}
     state["sources"].add(values.get("command_source", ""))
     state["states"].append(values.get("state", ""))
+    state["background"] = values.get("background_plans", "")
 
 node.create_subscription(JointState, "joint_command", on_command, 10)
 node.create_subscription(DiagnosticArray, "planner/status", on_status, 10)
@@ -75,6 +76,7 @@ t0 = time.monotonic()
 out["reached"] = bool(spin_until(lambda: reached(state["q"], problem)[0], 30.0))
 out["reach_s"] = time.monotonic() - t0
 out["sources"] = sorted(state["sources"])
+out["background"] = state["background"]
 
 # an unreachable goal (5 cm below the table top) is answered at once, with the reason
 t_call = time.monotonic()
@@ -128,6 +130,9 @@ def test_planner_node_follows_background_plans_and_keeps_ticking_while_it_plans(
     assert line, f"probe failed:\n{probe.stdout}\n{probe.stderr[-3000:]}\n{logs}"
     out = json.loads(line[len("RESULT ") :])
     assert out["reached"] and "plan" in out["sources"], (out, logs[-3000:])
+    # the plans ran in the node's child process (planning/plan_process.py), not beside the loop's interpreter
+    kind, pid = out["background"].split()
+    assert kind == "process" and int(pid) != procs[0].pid, out
     assert out["unreachable_len"] == 0 and out["unreachable_s"] < 1.0, out  # not the 6.6 s of "no progress"
     assert "unreachable: no valid IK solution" in logs and "table collision" in logs, logs[-3000:]
     assert out["plan_len"] == 0 and out["plan_s"] > 1.0, out  # a plan long enough to show the loop ticking
