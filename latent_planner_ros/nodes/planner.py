@@ -80,11 +80,13 @@ from latent_planner_ros.planning.backends import CLOUD_SCENE_BACKENDS, make_back
 from latent_planner_ros.planning.closed_loop import ClosedLoopController, TickOutcome
 from latent_planner_ros.planning.cylinder_backend import CylinderBackend
 from latent_planner_ros.planning.goal import Goal
+from latent_planner_ros.planning.goal_reachability import refused_result
 from latent_planner_ros.planning.grasp import grasp_reason, plan_grasp_spec
 from latent_planner_ros.planning.lspp import make_lspp
-from latent_planner_ros.planning.plan_process import PlanProcess, PlanSpec
+from latent_planner_ros.planning.plan_process import PlanProcess, PlanProcessError, PlanSpec
 from latent_planner_ros.planning.plan_runner import PlanRequest, ThreadedPlanRunner, planning_function
 from latent_planner_ros.planning.planner_modes import LSPP, PlannerModes
+from latent_planner_ros.planning.result import PlanResult
 from latent_planner_ros.planning.time_parameterisation import jerk_limited_trajectory
 from msg_adapters import (
     AdapterError,
@@ -114,6 +116,13 @@ REBUILT_BY = (
     "lspp",
 )
 """PlannerNodeConfig fields the planners are built from: a change rebuilds them (off the control loop)."""
+
+
+def _plan_spec(config: PlannerNodeConfig) -> PlanSpec:
+    """What the plan process builds its planner from: the AMP-LS planning instance of config."""
+    return PlanSpec(
+        config.amp_ls_config(), config.amp_ls.collision_backend, config.collision_checkpoint, config.vae_checkpoint
+    )
 
 
 def _planner_fields(config: PlannerNodeConfig) -> dict:
@@ -227,12 +236,7 @@ class PlannerNode(Node):
         for planner in (stepping, lspp, plan_planner):
             planner.warm_up()
         if self.plan_process is not None:  # the background plans in the child process, with the same planner
-            spec = PlanSpec(
-                config.amp_ls_config(),
-                config.amp_ls.collision_backend,
-                config.collision_checkpoint,
-                config.vae_checkpoint,
-            )
+            spec = _plan_spec(config)
             self.plan_process.prepare(spec)
             runner = ThreadedPlanRunner(self.plan_process.plan_fn(spec))
         else:
@@ -616,7 +620,7 @@ class PlannerNode(Node):
             with self._lock:
                 result = planner.plan(plan_request.q, goal, plan_request.scene)
         else:
-            result = planning_function(planner, self._plan_lock)(plan_request)
+            result = self._plan_one_shot(planner, plan_request)
         self.get_logger().info(
             f"plan ({planner.name}): {'success' if result.success else 'failure'} ({result.reason}) "
             f"in {time.perf_counter() - t0:.3f} s, "
@@ -642,6 +646,19 @@ class PlannerNode(Node):
         goal_world = path_to_world(self.frames, goal.position[None], np.array([[0.0, 0.0, 0.0, 1.0]]))[0][0]
         self.pub_markers.publish(path_markers(positions, goal_world, stamp))
         return SUCCESS, reason, result
+
+    def _plan_one_shot(self, planner: AmpLs, request: PlanRequest) -> PlanResult:
+        """An AMP-LS plan for ~/plan: in the plan process when there is one (its planner is built from the
+        configuration of the planners in use), else on this thread under the planning lock."""
+        if self.plan_process is None:
+            return planning_function(planner, self._plan_lock)(request)
+        t0 = time.perf_counter()
+        try:
+            result = self.plan_process.call(_plan_spec(self.config), request)
+        except PlanProcessError as err:
+            return refused_result(planner.panda, request.q, request.goal, f"planning failed: {err}", t0)
+        assert result is not None  # a request gets a result or raises
+        return result
 
     def _link_p_collision(self) -> dict[str, float]:
         """{link: p(collision)} the active backend gives the measured joint state ({} without one, or in LSPP)."""

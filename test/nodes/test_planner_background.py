@@ -1,6 +1,6 @@
 """The planner node keeps ticking while it plans: a static goal behind an obstacle reached by following a
 background plan, a goal changed while its plan runs, an unreachable goal answered at once, the longest gap
-between commands during a long ~/plan."""
+between commands during a long ~/plan, a plan process that dies."""
 
 from __future__ import annotations
 
@@ -14,10 +14,10 @@ import pytest
 from test.nodes.test_planner_node import REPO, _run, _stop
 
 PROBE = r"""
-import json, sys, time
+import json, os, signal, sys, time
 import numpy as np
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.srv import GetPlan
 from sensor_msgs.msg import JointState, PointCloud2
@@ -103,6 +103,25 @@ out["plan_s"], out["plan_len"] = time.monotonic() - t_call, len(future.result().
 times = state["times"][n:]
 out["commands_during_plan"] = len(times)
 out["longest_gap_s"] = float(np.max(np.diff([t_call, *times, time.monotonic()])))
+
+# the plan process dies while it plans (a crash in a native library, say): that ~/plan fails with the reason, the
+# loop goes on, and the next ~/plan is planned by a new child
+reasons = []
+node.create_subscription(DiagnosticStatus, "planner/plan_result", lambda m: reasons.append(m.message), 10)
+n, first_pid = len(state["times"]), state["background"]
+future = client.call_async(GetPlan.Request(goal=pose(centre, np.diag([1.0, -1.0, -1.0]))))  # the long plan again
+spin_until(lambda: False, 0.5)
+os.kill(int(first_pid.split()[1]), signal.SIGKILL)
+spin_until(lambda: future.done(), 60.0)
+spin_until(lambda: len(reasons) > 0, 2.0)
+out["after_kill"] = [len(future.result().plan.poses), reasons[-1] if reasons else ""]
+problem.cloud = problem.cloud[: -len(np.concatenate(faces))]  # the box gone again
+spin_until(lambda: False, 0.5)
+future = client.call_async(GetPlan.Request(goal=pose(problem.goal.position, problem.goal.rotation)))
+spin_until(lambda: future.done(), 60.0)
+spin_until(lambda: state["background"] != first_pid, 2.0)
+out["after_restart"] = [len(future.result().plan.poses), state["background"], first_pid]
+out["commands_after_kill"] = len(state["times"]) - n
 print("RESULT " + json.dumps(out), flush=True)
 """
 
@@ -139,4 +158,8 @@ def test_planner_node_follows_background_plans_and_keeps_ticking_while_it_plans(
     # 10 Hz on: before the planner ticked on its own thread, an 11.5 s plan left an 11.6 s gap (the probe shares
     # the CPU with the node, so allow a few periods of scheduling noise)
     assert out["longest_gap_s"] < 0.5 and out["commands_during_plan"] >= 0.7 * 10 * out["plan_s"], out
+    # a dead plan process: its ~/plan failed with the reason, the loop kept commanding, the next one planned
+    assert out["after_kill"][0] == 0 and "plan process exited" in out["after_kill"][1], out
+    assert out["after_restart"][0] > 0 and out["after_restart"][1] != out["after_restart"][2], out
+    assert out["commands_after_kill"] > 10, out
     assert all(p.returncode == 0 for p in procs), logs
