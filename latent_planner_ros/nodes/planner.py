@@ -668,7 +668,6 @@ class PlannerNode(Node):
             return {}
         return backend.link_p_collision(q)
 
-    @_locked
     def _background_plans(self) -> str:
         """Where the closed loop's background plans run: "process <pid>" (once the child is up) or "thread"."""
         if self.plan_process is None:
@@ -676,6 +675,7 @@ class PlannerNode(Node):
         pid = self.plan_process.pid
         return "process (starting)" if pid is None else f"process {pid}"
 
+    @_locked
     def _publish_status(self) -> None:
         o = self._last_outcome
         points_in, points_used = self._cloud_points
