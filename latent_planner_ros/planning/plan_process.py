@@ -92,6 +92,8 @@ def _serve(conn: Any) -> None:
             conn.send(answer)
         except (EOFError, OSError):
             return
+        except Exception as err:  # an answer that does not pickle: nothing was written, so say why instead
+            conn.send(_Raised(f"the plan's answer could not be sent: {type(err).__name__}: {err}"))
 
 
 def _child_main(conn: Any) -> None:

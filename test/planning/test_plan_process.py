@@ -106,3 +106,26 @@ def test_a_closed_process_refuses_plans():
     p.close()
     with pytest.raises(PlanProcessError, match="closed"):
         p.call(SPEC, None)
+
+
+def _unpicklable_answer(spec):
+    return lambda request: lambda: None  # a local function does not pickle
+
+
+@pytest.mark.slow
+def test_an_answer_that_does_not_pickle_is_an_error_and_the_child_serves_on(problems, monkeypatch):
+    import latent_planner_ros.planning.plan_process as plan_process
+
+    conn_parent, conn_child = plan_process.multiprocessing.Pipe()
+    monkeypatch.setattr(plan_process, "build_plan_fn", _unpicklable_answer)
+    worker = plan_process.threading.Thread(target=plan_process._serve, args=(conn_child,), daemon=True)
+    worker.start()
+    conn_parent.send((SPEC, _request(problems[0])))
+    assert conn_parent.poll(10.0), "no answer: the serving loop died on the unpicklable answer"
+    answer = conn_parent.recv()
+    assert isinstance(answer, plan_process._Raised) and "could not be sent" in answer.text
+    conn_parent.send((SPEC, None))  # still serving
+    assert conn_parent.recv() is None
+    conn_parent.send(None)
+    worker.join(5.0)
+    assert not worker.is_alive()
