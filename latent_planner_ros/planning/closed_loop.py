@@ -189,6 +189,7 @@ class ClosedLoopController:
         self._best_goal: np.ndarray | None = None
         self._goal_track: deque[tuple[float, np.ndarray]] = deque()  # (time [s], position (3,) [m]) of goals
         self._checked_scene: Any = None  # the scene last handed to the backend for a followed command
+        self._scene_after: float | None = None  # after a retreat: hold for a scene received after this time [s]
         checker = getattr(planner, "checker", None)
         # the newest clouds, for evasion (evade_margin_m) and the servo's clearance (servo_radius_m)
         watched = self.config.evade_margin_m > 0 or self.config.servo_radius_m > 0
@@ -239,7 +240,11 @@ class ClosedLoopController:
         return self._cloud
 
     def _obstacles(self, cloud: np.ndarray) -> np.ndarray:
-        """cloud (N, 3) [m] without the grasp target's points (the cloud itself at a reach goal)."""
+        """cloud (N, 3) [m] without the grasp target's points (the cloud itself at a reach goal; while retreating
+        from a grasp, without that grasp's target)."""
+        leaving = self.follower.leaving if self.follower is not None else None
+        if leaving is not None:
+            cloud = np.asarray(leaving[0].split(cloud, leaving[1]).obstacles, dtype=float)
         if self.grasp is None or self.goal is None:
             self.grasp_note = ""
             return cloud
@@ -307,6 +312,8 @@ class ClosedLoopController:
             if self.follower is not None:
                 self.follower.forget()
         self.goal, self.grasp = goal, grasp
+        if changed and self.follower is not None and self._q is not None:  # leaving a grasp: back out first
+            self.follower.retreat(self._q, self.planner.config.speed_scale)
         if self._raw_cloud is not None and (changed or grasp is not None):
             self._cloud = self._obstacles(self._raw_cloud)
         if changed:
@@ -466,9 +473,15 @@ class ClosedLoopController:
         assert f is not None and q is not None and goal is not None  # tick follows only with all three
         scene = self._scene if use_scene else None
         speed = float(np.linalg.norm(self.goal_velocity()))
+        if self._scene_after is not None:  # a retreat ended: the target is an obstacle again from the next scene on
+            if self._scene_time <= self._scene_after:
+                self._best_time = now
+                return self._scene_wait(hold, f.note)
+            self._scene_after = None
         cloud = self._raw_cloud if self.grasp is not None else self._cloud  # plan_grasp sets the target aside itself
         f.update(now, q, goal, speed, now - self._best_time, scene, cloud, self.grasp, self.cloud_views, self._eyes)
         t0 = time.perf_counter()
+        retreating = f.retreating
         target = f.command(q, goal)
         if target is not None:
             if use_scene and scene is not self._checked_scene:  # (a geometric scene costs a distance field)
@@ -477,6 +490,13 @@ class ClosedLoopController:
             if not self.planner.segment_free(q, target, f.escape_from):
                 f.drop("its next command collides in the newest scene")
                 target = None
+        if f.retreat_ended:  # the left grasp's target is an obstacle again
+            f.retreat_ended = False
+            if self._raw_cloud is not None:
+                self._cloud = self._obstacles(self._raw_cloud)
+            self._scene_after = self._scene_time
+            self._best_time = now
+            return self._scene_wait(hold, f.note)
         if target is None:
             if speed <= STILL_GOAL_MPS:  # a still goal already within tolerance: stay (local steps would wander)
                 at_goal, pos_err, ori_err = self.planner.arm_at_goal(q, goal)
@@ -501,7 +521,7 @@ class ClosedLoopController:
             "arm_pos_err_m": pos_err,
             "ori_err_deg": float(np.degrees(ori_err)),
             "tick_ms": (time.perf_counter() - t0) * 1000.0,
-            "command_source": "plan",
+            "command_source": "retreat" if retreating else "plan",
             "plan_note": f.note,
         }
         self._best_err, self._best_time, self._best_goal = min(pos_err, self._best_err), now, goal.position.copy()
@@ -509,8 +529,16 @@ class ClosedLoopController:
         if evasion is not None:
             f.drop("evading an approaching obstacle")
             return evasion
+        if retreating:
+            return TickOutcome(target, "tracking", "retreating along the approach of the grasp left", OK, values)
         reason = "reached" if reached else f"following the background plan ({f.waypoint})"
         return TickOutcome(target, "reached" if reached else "tracking", reason, OK, values)
+
+    @staticmethod
+    def _scene_wait(hold: np.ndarray, note: str) -> TickOutcome:
+        """Hold after a retreat from a grasp until a scene with its target in it has arrived."""
+        values = {"command_source": "wait", "plan_note": note}
+        return TickOutcome(hold, "holding", "holding: waiting for a scene with the grasp's target in it", OK, values)
 
     def _servo(self, now: float) -> TickOutcome | str:
         """The tick's command by IK towards the led goal when the TCP is within servo_radius_m of it (see

@@ -193,6 +193,7 @@ def plan_grasp(
     refused = approach.refused or target_touch(approach.q_path, split.target)
     timings["approach_s"] = time.perf_counter() - t
     info["approach"] = refused or f"{len(approach.q_path)} states, {approach_m * 100:g} cm"
+    info["approach_states"] = 0 if refused else len(approach.q_path)  # the path's last states
     q_path = np.concatenate([transit.q_path, approach.q_path])
     return result_from_path(
         panda,

@@ -12,6 +12,7 @@ from latent_planner_ros.perception.grasp_target import split_target
 from latent_planner_ros.planning.amp_ls import AmpLs, AmpLsConfig
 from latent_planner_ros.planning.closed_loop import ClosedLoopConfig, ClosedLoopController
 from latent_planner_ros.planning.geometric_backend import GeometricBackend
+from latent_planner_ros.planning.goal import Goal
 from latent_planner_ros.planning.grasp import GraspSpec, pregrasp_goal
 from latent_planner_ros.planning.plan_runner import DeferredPlanRunner, planning_function
 from latent_planner_ros.robot.panda import load_panda
@@ -86,3 +87,61 @@ def test_the_closed_loop_reaches_a_grasp_along_its_plan_and_touches_nothing(ship
     pre = pregrasp_goal(GOAL, 0.08).position
     tail = tcp[np.linalg.norm(tcp - pre, axis=1).argmin() :]
     assert np.linalg.norm(np.cross(tail - pre, GOAL.rotation[:, 2]), axis=1).max() < 0.011
+
+
+def _run(c: ClosedLoopController, q: np.ndarray, t0: float, ticks: int = 300):
+    """Tick from time t0 [s] until reached or failed; returns (final q, states (T, 7), outcomes, next time)."""
+    states, outcomes = [q.copy()], []
+    for k in range(ticks):
+        now = t0 + 0.1 * k
+        _feed(c, q, now)
+        out = c.tick(now)
+        outcomes.append(out)
+        if out.command is not None:
+            q = out.command
+        states.append(q.copy())
+        if out.state in ("reached", "failed"):
+            break
+    return q, np.array(states), outcomes, t0 + 0.1 * (k + 1)
+
+
+@pytest.mark.slow
+def test_a_goal_after_a_grasp_backs_the_arm_out_along_the_approach_first(shipped_vae):
+    c = _loop(shipped_vae)
+    start = _start()
+    _feed(c, start, 0.0)
+    assert c.set_goal(GOAL, 0.0, GraspSpec(approach_m=0.08))[0]
+    q, _, outcomes, now = _run(c, start, 0.0)
+    assert outcomes[-1].state == "reached", outcomes[-1].reason
+    # a reach goal back at the start's TCP pose: the grasp's target is an obstacle again
+    tf = load_panda().fk(start)
+    home = Goal(tf.translation.copy(), tf.rotation.copy())
+    _feed(c, q, now)
+    assert c.set_goal(home, now)[0]
+    assert c.follower.retreating and c.follower.leaving is not None
+    q, states, outcomes, _ = _run(c, q, now)
+    sources = [o.values.get("command_source") for o in outcomes]
+    assert outcomes[-1].state == "reached", outcomes[-1].reason
+    assert sources[0] == "retreat" and c.follower.plans["retreats"] == 1
+    # it backs out straight along the hand's z axis to the pre-grasp pose before anything else moves it
+    backing = states[: sources.index("retreat") + sum(s == "retreat" for s in sources) + 1]
+    tcp = load_panda().fk_batch(backing)[0]
+    pre = pregrasp_goal(GOAL, 0.08).position
+    assert np.linalg.norm(tcp[-1] - pre) < 0.005
+    assert np.linalg.norm(np.cross(tcp - pre, GOAL.rotation[:, 2]), axis=1).max() < 0.011
+    assert "plan" in sources[sources.index("retreat") + 1 :]  # then the new goal's plan from outside the object
+    assert len(c.cloud) == len(CLOUD)  # the target is an obstacle again
+    verdict = PathJudge(Scene((BOARD, OBJECT)), table=True).judge(states, home)
+    assert verdict.reached and verdict.collision == "", verdict
+
+
+def test_a_new_goal_away_from_the_approach_starts_no_retreat(shipped_vae):
+    c = _loop(shipped_vae)
+    start = _start()
+    _feed(c, start, 0.0)
+    pre = np.linspace(start, start + 0.3, 5)  # a kept "approach" the arm is not on
+    c.follower.approach = (pre, GraspSpec(approach_m=0.08), GOAL)
+    tf = load_panda().fk(start)
+    assert c.set_goal(Goal(tf.translation + [0.0, 0.0, 0.05], tf.rotation.copy()), 0.0)[0]
+    assert not c.follower.retreating and c.follower.approach is None  # used up
+    assert len(c.cloud) == len(CLOUD)
