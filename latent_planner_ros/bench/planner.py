@@ -106,7 +106,7 @@ def closed_loop(planner: AmpLs, problems: list[Problem], label: str, ticks: int,
             if out.state == "failed" or (out.state == "reached" and reached(q, pr, planner.config.use_orientation)[0]):
                 break
         if controller.follower is not None:
-            plans = {key: plans[key] + n for key, n in controller.follower.plans.items()}
+            plans = {key: plans.get(key, 0) + n for key, n in controller.follower.plans.items()}
         collided = path_collides(pr, np.array(path))
         collisions += collided
         successes += reached(q, pr, planner.config.use_orientation)[0] and not collided

@@ -231,6 +231,8 @@ class TableRunner:
                     "collision_backend": str(result.info.get("collision_backend", "")),
                     "escape": str(result.info.get("escape", "")),
                     "escape_seen_only": bool(result.info.get("escape_seen_only", False)),
+                    "escape_seen_depth_m": result.info.get("escape_seen_depth_m"),
+                    "escape_seen_note": result.info.get("escape_seen_note", ""),
                 }
             )
         return rows

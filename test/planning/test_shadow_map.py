@@ -118,3 +118,34 @@ def test_the_escape_builds_one_shadow_map_per_scene_and_none_without_cameras(shi
     escape.set_scene(_plane_x(1.0), None)
     assert escape.hidden_arm() is None
     assert not HiddenArm().hidden(Q_READY[None]).any()  # no shadow map: nothing hidden
+
+
+def test_a_deeper_seen_space_search_runs_before_the_hard_check_alone(shipped_vae):
+    """The camera looks at the wall from the goal's side, so the start's arm lies in the wall's shadow: the
+    seen-space search at 2 cm finds no path and says why; with a fallback depth the arm may lie beyond (3 m:
+    everything here), the path is found in seen space at that depth."""
+    seed_ompl(1)
+    goal = _goal_of(GOAL_Q)
+    wall = _wall(goal)
+    centre = wall.mean(axis=0)
+    normal = goal.position - centre
+    normal /= np.linalg.norm(normal)
+    eye = centre + 1.5 * normal + [0, 0, 0.2]  # behind the goal, looking back at the wall
+    assert HiddenArm(ShadowMap(wall, eye)).hidden(Q_READY[None])[0]
+    field = GeometricBackendConfig(distance="field")
+    base = {"collision_backend": "geometric", "escape.after_s": 0.3, "escape.budget_s": 1.5, "escape.seen_share": 1.0}
+    plain = AmpLs(shipped_vae, GeometricBackend(field), with_overrides(AmpLsConfig(), base))
+    result = plain.plan(Q_READY, goal, wall, eye)
+    assert result.success and not result.info["escape_seen_only"], result.reason
+    assert result.info["escape_seen_note"].startswith("2 cm: "), result.info["escape_seen_note"]
+    deeper = {**base, "escape.fallback_depths_m": [3.0]}
+    planner = AmpLs(shipped_vae, GeometricBackend(field), with_overrides(AmpLsConfig(), deeper))
+    result = planner.plan(Q_READY, goal, wall, eye)
+    assert result.success and result.info["escape_seen_only"], result.reason
+    assert result.info["escape_seen_depth_m"] == 3.0 and "escape_seen_note" not in result.info
+
+
+@pytest.mark.parametrize("depths", [[0.0], [-0.1], [float("nan")], "0.1"])
+def test_bad_fallback_depths_are_refused(depths):
+    with pytest.raises(ValueError, match="fallback_depths_m"):
+        with_overrides(AmpLsConfig(), {"escape.fallback_depths_m": depths})

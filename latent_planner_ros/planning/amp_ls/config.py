@@ -195,9 +195,18 @@ class EscapeConfig:
     docs/benchmark.md), so one is the default"""
     seen_depth_m: float = 0.02
     """[m] how far behind an observed surface a point must lie to count as hidden (shadow_map.ShadowMap)"""
+    fallback_depths_m: tuple[float, ...] = ()
+    """[m] when the seen-space search at seen_depth_m finds no path, further seen-space searches (seen_share x
+    budget_s each) at these depths (a path may then pass up to that far behind an observed surface), before the
+    search on the hard check alone; () = none"""
 
     def __post_init__(self) -> None:
         _raise("escape.", _problems(self, positive=("budget_s",), non_negative=("after_s", "seen_depth_m")))
+        depths = self.fallback_depths_m
+        if not (isinstance(depths, tuple | list) and all(isinstance(d, int | float) and math.isfinite(d) and d > 0
+                                                          for d in depths)):  # fmt: skip
+            raise ValueError(f"escape.fallback_depths_m must be a list of positive depths [m], got {depths!r}")
+        self.fallback_depths_m = tuple(float(d) for d in depths)
         if not (isinstance(self.attempts, int) and self.attempts >= 1):
             raise ValueError(f"escape.attempts must be an integer >= 1, got {self.attempts!r}")
         if not 0.0 <= self.seen_share <= 1.0:

@@ -11,7 +11,8 @@ check that also refuses any state putting part of the arm where every camera's v
 surface (planning/shadow_map.py); only if that finds no path does it search on the hard check alone, with its
 whole budget again (so an escape takes at most (1 + seen_share) x budget_s). A path found
 in seen space is shortcut on the same strict check (`seen_only`), so the shortcut does not pull it back behind
-the surfaces.
+the surfaces. escape.fallback_depths_m (off by default: measured no safer, docs/benchmark.md) adds seen-space
+searches that let the arm lie that far behind a surface; `seen_note` says why the seen-space searches failed.
 """
 
 from __future__ import annotations
@@ -69,12 +70,16 @@ class RrtEscapePart:
         self._shadow_of: tuple[np.ndarray, np.ndarray] | None = None  # the scene the arm's shadow was built for
         self.seen_only = False
         """whether the last escape's path was found on the seen-space check (its shortcut must use it too)"""
+        self.seen_note = ""
+        """why the last escape's seen-space searches found no path ("" when one did or none ran)"""
+        self.seen_depth = 0.0
+        """[m] the depth behind observed surfaces (ShadowMap.depth_m) of the seen-space search that found the path"""
 
     def set_scene(self, cloud: np.ndarray | None, origin: np.ndarray | None) -> None:
         """The plan's cloud (N, 3) [m] and where it was seen from: per-point origins (N, 3), or the cameras'
         centres ((3,) or (K, 3)) [m]; None: unknown, no seen-space search."""
         self._scene = None if cloud is None or origin is None or not len(cloud) else (cloud, origin)
-        self.seen_only = False
+        self.seen_only, self.seen_note = False, ""
 
     def hidden_arm(self) -> HiddenArm | None:
         """The HiddenArm of the current scene (its ShadowMap built on first use, 15-30 ms for 40k points and 3
@@ -131,19 +136,28 @@ class RrtEscapePart:
 
     def _seen_first(self, starts: list[np.ndarray], goal_qs: list[np.ndarray]) -> EscapeResult | None:
         """RRTConnect on the seen-space check (`SegmentChecker.seen_only`) from the starts and to the goal states
-        (each (7,) [rad]) that pass it, within escape.seen_share x escape.budget_s; the found result (its start
-        index into `starts`), or None (no camera origins, no start or goal state in seen space, or no path)."""
+        (each (7,) [rad]) that pass it, within escape.seen_share x escape.budget_s, at seen_depth_m and then at
+        each of escape.fallback_depths_m; the found result (its start index into `starts`), or None (no camera
+        origins, or at every depth no start or goal state in seen space or no path; `seen_note` says which)."""
+        self.seen_note = ""
         with self.clock.section("escape"):  # the shadow map's time counts as the escape's
             arm = self.hidden_arm()
         if arm is None or arm.shadow is None:
             return None
-        with self.clock.section("escape"), self.checker.seen_only(arm):
-            ok_starts = [i for i, q in enumerate(starts) if self.checker.state_free(q)]
-            ok_goals = [q for q in goal_qs if self.checker.state_free(q)]
-            if not ok_starts or not ok_goals:
-                return None
-            budget = self.config.seen_share * self.config.budget_s
-            out = self.rrt.solve([starts[i] for i in ok_starts], ok_goals, budget)
-        if out.vertices is None:
-            return None
-        return EscapeResult(out.vertices, out.reason, out.elapsed_s, out.motions, ok_starts[out.start])
+        notes = []
+        for depth in (self.config.seen_depth_m, *self.config.fallback_depths_m):
+            arm.shadow.depth_m = depth  # kept on success: the path's shortcut uses the same check
+            with self.clock.section("escape"), self.checker.seen_only(arm):
+                ok_starts = [i for i, q in enumerate(starts) if self.checker.state_free(q)]
+                ok_goals = [q for q in goal_qs if self.checker.state_free(q)]
+                if not ok_starts or not ok_goals:
+                    notes.append(f"{depth * 100:g} cm: no {'start' if not ok_starts else 'goal state'} in seen space")
+                    continue
+                budget = self.config.seen_share * self.config.budget_s
+                out = self.rrt.solve([starts[i] for i in ok_starts], ok_goals, budget)
+            if out.vertices is not None:
+                self.seen_depth = depth
+                return EscapeResult(out.vertices, out.reason, out.elapsed_s, out.motions, ok_starts[out.start])
+            notes.append(f"{depth * 100:g} cm: {out.reason}")
+        self.seen_note = "; ".join(notes)
+        return None

@@ -399,6 +399,10 @@ class AmpLs:
         result.info["start_refused"] = start_refused
         result.info["escape_attempts"] = attempts
         result.info["escape_seen_only"] = bool(seen_path)
+        if seen_path and escape is not None:
+            result.info["escape_seen_depth_m"] = escape.seen_depth
+        if escaped and escape is not None and escape.seen_note:
+            result.info["escape_seen_note"] = escape.seen_note  # why no path was found in seen space
         result.info["collision_backend"] = self.backend.mode
         result.info["goal_configurations"] = -1 if s.goal_qs is None else len(s.goal_qs)  # -1: not searched
         result.info["guided"] = bool(np.isfinite(s.guide_q[winner, 0]))
