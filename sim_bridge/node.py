@@ -193,7 +193,8 @@ class SimNode(Node):
             self.get_logger().warning(f"joint_trajectory refused: {err}", throttle_duration_sec=1.0)
             return
         stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9  # 0: now
-        reason = self.sim.set_trajectory(times, q, dq, ddq, stamp=stamp)
+        # the stamp is on the published /clock, which runs on across resets; the sim's own time restarts at each
+        reason = self.sim.set_trajectory(times, q, dq, ddq, stamp=self.runner.to_sim_time(stamp) if stamp else 0.0)
         if reason:
             self.get_logger().warning(f"joint_trajectory refused: {reason}", throttle_duration_sec=1.0)
         self._log_source()

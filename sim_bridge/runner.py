@@ -87,6 +87,10 @@ class Runner:
         """[s] simulated time since the runner started."""
         return self._clock_offset + self.sim.data.time
 
+    def to_sim_time(self, clock: float) -> float:
+        """[s] the sim's own time (`sim.data.time`, which restarts at every reset) of a time on the published clock."""
+        return float(clock) - self._clock_offset
+
     def set_real_time_factor(self, factor: float) -> None:
         """Change the pace (0: as fast as possible) from now on."""
         self.real_time_factor = float(factor)
