@@ -4,36 +4,22 @@ descriptors, integers taken for doubles, refusals that name the full dotted para
 from __future__ import annotations
 
 import pytest
-import rclpy
 from rclpy.parameter import Parameter
 
 from latent_planner_ros.params.config import ConfigError
+from test.nodes.sim_node import make_sim, running_sim
 
 pytestmark = pytest.mark.ros
 
-SMALL = ["-p", "camera.width:=64", "-p", "camera.height:=48"]
-
 
 def _sim(*args: str):
-    rclpy.init(args=["--ros-args", "-p", "cameras:=[camera, front]", *SMALL, *args])
-    from sim_bridge.node import SimNode
-
-    try:
-        return SimNode()
-    except BaseException:
-        rclpy.shutdown()
-        raise
+    return make_sim("-p", "cameras:=[camera, front]", *args)
 
 
 @pytest.fixture
 def sim():
-    node = _sim("-p", "front.rate:=5")  # an integer for a double, from a YAML or the command line
-    try:
+    with running_sim("-p", "cameras:=[camera, front]", "-p", "front.rate:=5") as node:  # an int for a double
         yield node
-    finally:
-        node.close()
-        node.destroy_node()
-        rclpy.shutdown()
 
 
 def _set(node, name, value):

@@ -6,28 +6,20 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import rclpy
 from builtin_interfaces.msg import Time
 
 from latent_planner_ros.robot.limits import Q_READY
 from msg_adapters import joint_path_to_trajectory
 from sim_bridge.sim import TRAJECTORY
+from test.nodes.sim_node import running_sim
 
 pytestmark = pytest.mark.ros
 
 
 @pytest.fixture
 def sim():
-    rclpy.init(args=["--ros-args", "-p", "camera.width:=64", "-p", "camera.height:=48"])
-    from sim_bridge.node import SimNode
-
-    node = SimNode()
-    try:
+    with running_sim() as node:
         yield node
-    finally:
-        node.close()
-        node.destroy_node()
-        rclpy.shutdown()
 
 
 def _segment(start_s: float):

@@ -60,35 +60,6 @@ def test_without_background_plans_a_grasp_goal_is_refused_with_the_reason(shippe
     assert not ok and "follow_plans" in reason
 
 
-@pytest.mark.slow
-def test_the_closed_loop_reaches_a_grasp_along_its_plan_and_touches_nothing(shipped_vae):
-    c = _loop(shipped_vae)
-    q = _start()
-    _feed(c, q, 0.0)
-    assert c.set_goal(GOAL, 0.0, GraspSpec(approach_m=0.08))[0]
-    states, outcomes = [q.copy()], []
-    for k in range(300):
-        now = 0.1 * k
-        _feed(c, q, now)
-        out = c.tick(now)
-        outcomes.append(out)
-        assert out.values.get("command_source") in ("plan", "wait", "hold"), out.reason  # never a local step
-        if out.command is not None:
-            q = out.command
-        states.append(q.copy())
-        if out.state in ("reached", "failed"):
-            break
-    assert out.state == "reached", out.reason
-    assert c.follower.plans["followed"] >= 1
-    verdict = PathJudge(Scene((BOARD, OBJECT)), table=True).judge(np.array(states), GOAL)
-    assert verdict.reached and verdict.collision == "", verdict
-    # the arm came in straight along the hand's z axis over the last 8 cm (the approach of plan_grasp)
-    tcp = load_panda().fk_batch(np.array(states))[0]
-    pre = pregrasp_goal(GOAL, 0.08).position
-    tail = tcp[np.linalg.norm(tcp - pre, axis=1).argmin() :]
-    assert np.linalg.norm(np.cross(tail - pre, GOAL.rotation[:, 2]), axis=1).max() < 0.011
-
-
 def _run(c: ClosedLoopController, q: np.ndarray, t0: float, ticks: int = 300):
     """Tick from time t0 [s] until reached or failed; returns (final q, states (T, 7), outcomes, next time)."""
     states, outcomes = [q.copy()], []
@@ -103,6 +74,27 @@ def _run(c: ClosedLoopController, q: np.ndarray, t0: float, ticks: int = 300):
         if out.state in ("reached", "failed"):
             break
     return q, np.array(states), outcomes, t0 + 0.1 * (k + 1)
+
+
+@pytest.mark.slow
+def test_the_closed_loop_reaches_a_grasp_along_its_plan_and_touches_nothing(shipped_vae):
+    c = _loop(shipped_vae)
+    q = _start()
+    _feed(c, q, 0.0)
+    assert c.set_goal(GOAL, 0.0, GraspSpec(approach_m=0.08))[0]
+    q, states, outcomes, _ = _run(c, q, 0.0)
+    out = outcomes[-1]
+    for o in outcomes:  # never a local step
+        assert o.values.get("command_source") in ("plan", "wait", "hold"), o.reason
+    assert out.state == "reached", out.reason
+    assert c.follower.plans["followed"] >= 1
+    verdict = PathJudge(Scene((BOARD, OBJECT)), table=True).judge(states, GOAL)
+    assert verdict.reached and verdict.collision == "", verdict
+    # the arm came in straight along the hand's z axis over the last 8 cm (the approach of plan_grasp)
+    tcp = load_panda().fk_batch(states)[0]
+    pre = pregrasp_goal(GOAL, 0.08).position
+    tail = tcp[np.linalg.norm(tcp - pre, axis=1).argmin() :]
+    assert np.linalg.norm(np.cross(tail - pre, GOAL.rotation[:, 2]), axis=1).max() < 0.011
 
 
 @pytest.mark.slow

@@ -72,28 +72,39 @@ def test_the_arm_behind_a_wall_is_hidden_and_in_front_of_it_is_not():
     assert not clear.hidden(np.stack([Q_READY, GOAL_Q])).any()
 
 
+def _wall_scene():
+    """The goal of GOAL_Q, the wall before it (test_escape), the wall's centre (3,) and its unit normal towards the
+    goal (3,) [m]."""
+    goal = _goal_of(GOAL_Q)
+    wall = _wall(goal)
+    centre = wall.mean(axis=0)
+    normal = goal.position - centre
+    return goal, wall, centre, normal / np.linalg.norm(normal)
+
+
+def _escape_planner(vae, overrides: dict) -> AmpLs:
+    """AMP-LS on the geometric backend with a distance field (the latent search stalls at the wall, test_escape)
+    and the escape 0.3 s in (time to spare for its seen-space search on a loaded machine), with overrides."""
+    base = {"collision_backend": "geometric", "escape.after_s": 0.3, "escape.seen_share": 1.0}
+    field = GeometricBackend(GeometricBackendConfig(distance="field"))
+    return AmpLs(vae, field, with_overrides(AmpLsConfig(), {**base, **overrides}))
+
+
 def test_the_escape_searches_seen_space_first_and_its_path_stays_there(shipped_vae):
     """A wall between the ready pose and the goal, seen by one camera from the start's side, off to one side: the
     escape's path (shortcut included) keeps every sphere centre of the arm out of the wall's shadow; with
     seen_share 0 it is not asked."""
     seed_ompl(1)
-    goal = _goal_of(GOAL_Q)
-    wall = _wall(goal)
-    centre = wall.mean(axis=0)
-    normal = goal.position - centre
-    normal /= np.linalg.norm(normal)
+    goal, wall, centre, normal = _wall_scene()
     side = np.cross(normal, [0, 0, 1.0])
     eye = centre - 1.2 * side / np.linalg.norm(side) - 0.4 * normal + [0, 0, 0.3]  # start and goal in view
-    field = GeometricBackendConfig(distance="field")  # the latent search stalls at the wall (test_escape)
-    # the escape runs 0.3 s in, with time to spare for its seen-space search on a loaded machine
-    base = {"collision_backend": "geometric", "escape.after_s": 0.3, "escape.budget_s": 3.0, "escape.seen_share": 1.0}
-    planner = AmpLs(shipped_vae, GeometricBackend(field), with_overrides(AmpLsConfig(), base))
+    planner = _escape_planner(shipped_vae, {"escape.budget_s": 3.0})
     result = planner.plan(Q_READY, goal, wall, eye)
     assert result.success and result.reason == "reached (escape: rrt)", result.reason
     assert result.info["escape_seen_only"]
     arm = HiddenArm(ShadowMap(wall, eye))
     assert not arm.hidden(result.q_path).any()
-    off = AmpLs(shipped_vae, GeometricBackend(field), with_overrides(AmpLsConfig(), {**base, "escape.seen_share": 0}))
+    off = _escape_planner(shipped_vae, {"escape.budget_s": 3.0, "escape.seen_share": 0})
     result = off.plan(Q_READY, goal, wall, eye)
     assert result.success and not result.info["escape_seen_only"]
 
@@ -125,21 +136,14 @@ def test_a_deeper_seen_space_search_runs_before_the_hard_check_alone(shipped_vae
     seen-space search at 2 cm finds no path and says why; with a fallback depth the arm may lie beyond (3 m:
     everything here), the path is found in seen space at that depth."""
     seed_ompl(1)
-    goal = _goal_of(GOAL_Q)
-    wall = _wall(goal)
-    centre = wall.mean(axis=0)
-    normal = goal.position - centre
-    normal /= np.linalg.norm(normal)
+    goal, wall, centre, normal = _wall_scene()
     eye = centre + 1.5 * normal + [0, 0, 0.2]  # behind the goal, looking back at the wall
     assert HiddenArm(ShadowMap(wall, eye)).hidden(Q_READY[None])[0]
-    field = GeometricBackendConfig(distance="field")
-    base = {"collision_backend": "geometric", "escape.after_s": 0.3, "escape.budget_s": 1.5, "escape.seen_share": 1.0}
-    plain = AmpLs(shipped_vae, GeometricBackend(field), with_overrides(AmpLsConfig(), base))
+    plain = _escape_planner(shipped_vae, {"escape.budget_s": 1.5})
     result = plain.plan(Q_READY, goal, wall, eye)
     assert result.success and not result.info["escape_seen_only"], result.reason
     assert result.info["escape_seen_note"].startswith("2 cm: "), result.info["escape_seen_note"]
-    deeper = {**base, "escape.fallback_depths_m": [3.0]}
-    planner = AmpLs(shipped_vae, GeometricBackend(field), with_overrides(AmpLsConfig(), deeper))
+    planner = _escape_planner(shipped_vae, {"escape.budget_s": 1.5, "escape.fallback_depths_m": [3.0]})
     result = planner.plan(Q_READY, goal, wall, eye)
     assert result.success and result.info["escape_seen_only"], result.reason
     assert result.info["escape_seen_depth_m"] == 3.0 and "escape_seen_note" not in result.info
