@@ -76,13 +76,19 @@ def _run(c: ClosedLoopController, q: np.ndarray, t0: float, ticks: int = 300):
     return q, np.array(states), outcomes, t0 + 0.1 * (k + 1)
 
 
+def _grasp(vae):
+    """The closed loop from the start pose to GOAL as a grasp (8 cm approach), ticked until reached or failed:
+    (controller, start (7,), final q, states (T, 7), outcomes, next time [s])."""
+    c = _loop(vae)
+    start = _start()
+    _feed(c, start, 0.0)
+    assert c.set_goal(GOAL, 0.0, GraspSpec(approach_m=0.08))[0]
+    return c, start, *_run(c, start, 0.0)
+
+
 @pytest.mark.slow
 def test_the_closed_loop_reaches_a_grasp_along_its_plan_and_touches_nothing(shipped_vae):
-    c = _loop(shipped_vae)
-    q = _start()
-    _feed(c, q, 0.0)
-    assert c.set_goal(GOAL, 0.0, GraspSpec(approach_m=0.08))[0]
-    q, states, outcomes, _ = _run(c, q, 0.0)
+    c, _, _, states, outcomes, _ = _grasp(shipped_vae)
     out = outcomes[-1]
     for o in outcomes:  # never a local step
         assert o.values.get("command_source") in ("plan", "wait", "hold"), o.reason
@@ -99,11 +105,7 @@ def test_the_closed_loop_reaches_a_grasp_along_its_plan_and_touches_nothing(ship
 
 @pytest.mark.slow
 def test_a_goal_after_a_grasp_backs_the_arm_out_along_the_approach_first(shipped_vae):
-    c = _loop(shipped_vae)
-    start = _start()
-    _feed(c, start, 0.0)
-    assert c.set_goal(GOAL, 0.0, GraspSpec(approach_m=0.08))[0]
-    q, _, outcomes, now = _run(c, start, 0.0)
+    c, start, q, _, outcomes, now = _grasp(shipped_vae)
     assert outcomes[-1].state == "reached", outcomes[-1].reason
     # a reach goal back at the start's TCP pose: the grasp's target is an obstacle again
     tf = load_panda().fk(start)
